@@ -1,0 +1,1 @@
+"""The application layer: executor, mission service, viewer and command-line interface."""

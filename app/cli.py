@@ -1,0 +1,92 @@
+"""The ``screwsnake`` command line (typer + rich)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+from rich.console import Console
+from rich.table import Table
+
+from app.plots import plot_trajectories
+from sim.controls import Control, FixedShape, PeriodicGait
+from sim.paper_cases import PAPER_CASES
+from sim.rollout import JOINT_MODES, RolloutConfig, rollout
+
+cli = typer.Typer(
+    help="Learn, plan and run goal-directed locomotion of a screw-drive snake robot.",
+    no_args_is_help=True,
+    add_completion=False,
+)
+console = Console()
+
+
+@cli.callback()
+def root() -> None:
+    """screwsnake: motor primitives, planning and missions for a screw-drive snake robot."""
+
+
+Triple = tuple[float, float, float]
+Quad = tuple[float, float, float, float]
+
+
+def fail(message: str) -> typer.Exit:
+    console.print(f"[red]error:[/red] {message}")
+    return typer.Exit(code=2)
+
+
+@cli.command()
+def simulate(
+    case: Annotated[
+        str | None, typer.Option(help=f"a paper case: {', '.join(PAPER_CASES)}")
+    ] = None,
+    theta: Annotated[Quad | None, typer.Option(help="screw speeds θ̇1..4 [rad/s]")] = None,
+    joints: Annotated[Triple | None, typer.Option(help="fixed joint angles φ1..3 [rad]")] = None,
+    phases: Annotated[Triple | None, typer.Option(help="periodic gait phases ϕ1..3 [rad]")] = None,
+    start: Annotated[Triple, typer.Option(help="start pose x y ψ")] = (0.0, 0.0, 0.0),
+    duration: Annotated[float, typer.Option(help="model seconds")] = 100.0,
+    dt: Annotated[float, typer.Option(help="Euler step [model s]")] = 1.0,
+    joint_mode: Annotated[str, typer.Option(help="paper (quasi-static) or complete")] = "paper",
+    out: Annotated[Path | None, typer.Option(help="trajectory plot (PNG)")] = None,
+) -> None:
+    """Run one control open-loop, print the end pose and write a trajectory plot."""
+    goal: tuple[float, float] | None = None
+    try:
+        control: Control
+        if case is not None:
+            if case not in PAPER_CASES:
+                raise ValueError(f"case: unknown {case!r}; known: {', '.join(PAPER_CASES)}")
+            paper = PAPER_CASES[case]
+            control, goal = paper.control(), paper.goal
+        elif theta is None:
+            raise ValueError("give --case NAME or --theta with --joints or --phases")
+        elif phases is not None:
+            control = PeriodicGait.of(theta, phases)
+        else:
+            control = FixedShape.of(theta, joints or (0.0, 0.0, 0.0))
+        if joint_mode not in JOINT_MODES:
+            raise ValueError(f"joint-mode: one of {', '.join(JOINT_MODES)}")
+        config = RolloutConfig(duration, dt, joint_mode)
+        states = rollout(control, start, config).states[0]
+    except ValueError as exc:
+        raise fail(str(exc)) from exc
+    end = states[-1]
+    table = Table(title=f"end pose after {config.duration:g} model s ({config.steps} steps)")
+    for col in ("x (m)", "y (m)", "ψ (deg)"):
+        table.add_column(col, justify="right")
+    table.add_row(f"{end[0]:.3f}", f"{end[1]:.3f}", f"{math.degrees(end[2]):.1f}")
+    console.print(table)
+    if goal is not None:
+        error = float(np.hypot(end[0] - goal[0], end[1] - goal[1]))
+        console.print(f"goal {goal}: distance {error:.3f} m")
+    name = case or "simulate"
+    path = out or Path("out") / f"{name}.png"
+    plot_trajectories(path, [states], title=name, goals=[goal] if goal else [])
+    console.print(f"plot: {path}")
+
+
+def main() -> None:
+    cli()

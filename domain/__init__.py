@@ -1,0 +1,1 @@
+"""The symbolic layer: PDDL domains and problems from the library, planning and replanning."""

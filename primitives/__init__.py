@@ -1,0 +1,1 @@
+"""Motor primitives: learners (PI² and others), the primitive library and interpolation."""

@@ -1,0 +1,1 @@
+"""Kinematic simulator of the four-unit screw-drive snake robot (kinematics.md)."""

@@ -1,0 +1,145 @@
+"""Control inputs: screw speeds with a fixed body shape or a periodic gait, validated.
+
+A control is batched: ``theta`` is ``[K, 4]`` and the joint part ``[K, 3]``; a single control
+is the case K = 1. ``angles(t)`` and ``rates(t)`` give the joint angles and joint rates at
+model times ``t`` (``[N]``) as ``[K, N, 3]``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from sim.robot import DEFAULT_GEOMETRY, N_JOINTS, N_UNITS, Array, RobotGeometry
+
+GAIT_AMPLITUDE = 0.2  # rad, paper eq. 13
+GAIT_OMEGA = 0.6  # rad per model second
+
+
+def as_batch(value: ArrayLike, width: int, name: str) -> Array:
+    """``value`` as a finite float array ``[K, width]`` (a single vector becomes K = 1)."""
+    try:
+        arr = np.array(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: expected numbers, got {value!r}") from exc
+    if arr.ndim == 1:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != width or arr.shape[0] == 0:
+        raise ValueError(f"{name}: expected shape [{width}] or [K, {width}], got {list(arr.shape)}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name}: values must be finite (no NaN or inf)")
+    return arr
+
+
+def check_screw_speeds(theta: Array, geometry: RobotGeometry, name: str = "theta") -> None:
+    limit = geometry.max_screw_speed
+    if np.any(np.abs(theta) > limit + 1e-12):
+        raise ValueError(f"{name}: screw speeds must lie within ±{limit} rad/s")
+
+
+def check_joint_angles(phi: Array, geometry: RobotGeometry, name: str = "joints") -> None:
+    limit = geometry.joint_limit
+    if np.any(np.abs(phi) > limit + 1e-12):
+        raise ValueError(f"{name}: joint angles must lie within ±π/2 ({limit:.4f} rad)")
+
+
+def clamp_joints(phi: Array, geometry: RobotGeometry) -> Array:
+    """Keep joints off the singular all-parallel shapes at exactly ±π/2 (kinematics.md §3)."""
+    m = geometry.max_joint_angle
+    return np.clip(phi, -m, m)
+
+
+@dataclass(frozen=True)
+class FixedShape:
+    """Screw speeds ``[K, 4]`` with joints held at ``[K, 3]`` (parameter vectors U1 and U2)."""
+
+    theta: Array
+    joints: Array
+
+    @classmethod
+    def of(
+        cls, theta: ArrayLike, joints: ArrayLike, geometry: RobotGeometry = DEFAULT_GEOMETRY
+    ) -> FixedShape:
+        th = as_batch(theta, N_UNITS, "theta")
+        ph = as_batch(joints, N_JOINTS, "joints")
+        if ph.shape[0] == 1 and th.shape[0] > 1:
+            ph = np.repeat(ph, th.shape[0], axis=0)
+        if ph.shape[0] != th.shape[0]:
+            raise ValueError(f"joints: batch size {ph.shape[0]} != theta's {th.shape[0]}")
+        check_screw_speeds(th, geometry)
+        check_joint_angles(ph, geometry)
+        return cls(th, clamp_joints(ph, geometry))
+
+    @property
+    def size(self) -> int:
+        return int(self.theta.shape[0])
+
+    def angles(self, t: Array) -> Array:
+        return np.broadcast_to(self.joints[:, None, :], (self.size, t.size, N_JOINTS))
+
+    def rates(self, t: Array) -> Array:
+        return np.zeros((self.size, t.size, N_JOINTS))
+
+
+@dataclass(frozen=True)
+class PeriodicGait:
+    """Screw speeds ``[K, 4]`` and joint phases ``[K, 3]``: φ_i(t) = A sin(ω (t − t0) + ϕ_i) (U3)."""
+
+    theta: Array
+    phases: Array
+    amplitude: float = GAIT_AMPLITUDE
+    omega: float = GAIT_OMEGA
+    t0: float = 0.0
+
+    @classmethod
+    def of(
+        cls,
+        theta: ArrayLike,
+        phases: ArrayLike,
+        amplitude: float = GAIT_AMPLITUDE,
+        omega: float = GAIT_OMEGA,
+        t0: float = 0.0,
+        geometry: RobotGeometry = DEFAULT_GEOMETRY,
+    ) -> PeriodicGait:
+        th = as_batch(theta, N_UNITS, "theta")
+        ph = as_batch(phases, N_JOINTS, "phases")
+        if ph.shape[0] == 1 and th.shape[0] > 1:
+            ph = np.repeat(ph, th.shape[0], axis=0)
+        if ph.shape[0] != th.shape[0]:
+            raise ValueError(f"phases: batch size {ph.shape[0]} != theta's {th.shape[0]}")
+        for name, value in (("amplitude", amplitude), ("omega", omega), ("t0", t0)):
+            if not math.isfinite(value):
+                raise ValueError(f"{name}: must be finite")
+        if not 0.0 <= amplitude <= geometry.max_joint_angle:
+            raise ValueError(f"amplitude: must lie within [0, {geometry.max_joint_angle:.4f}]")
+        check_screw_speeds(th, geometry)
+        return cls(th, ph, float(amplitude), float(omega), float(t0))
+
+    @property
+    def size(self) -> int:
+        return int(self.theta.shape[0])
+
+    def _arg(self, t: Array) -> Array:
+        return self.omega * (t[None, :, None] - self.t0) + self.phases[:, None, :]
+
+    def angles(self, t: Array) -> Array:
+        return self.amplitude * np.sin(self._arg(t))
+
+    def rates(self, t: Array) -> Array:
+        return self.amplitude * self.omega * np.cos(self._arg(t))
+
+
+Control = FixedShape | PeriodicGait
+
+
+def take(control: Control, index: int) -> Control:
+    """The single control (K = 1) at ``index`` of a batch."""
+    sl = slice(index, index + 1)
+    if isinstance(control, FixedShape):
+        return FixedShape(control.theta[sl], control.joints[sl])
+    return PeriodicGait(
+        control.theta[sl], control.phases[sl], control.amplitude, control.omega, control.t0
+    )

@@ -1,0 +1,119 @@
+"""Sensors: head range sensors by ray casting, joint-angle sensors, pose; seeded noise."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from sim.obstacles import unit_vectors
+from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry, head_tip
+from sim.world import World
+
+
+@dataclass(frozen=True)
+class RangeSensor:
+    """A range sensor on the head, ``angle`` from the robot's forward direction (CCW).
+
+    A field of view wider than 0 is covered by ``rays`` rays; the reading is the nearest hit.
+    """
+
+    name: str
+    angle: float = 0.0
+    max_range: float = 0.8
+    fov: float = 0.0
+    rays: int = 1
+    noise_std: float = 0.0
+
+    def __post_init__(self) -> None:
+        for key in ("angle", "max_range", "fov", "noise_std"):
+            if not math.isfinite(getattr(self, key)):
+                raise ValueError(f"{self.name}.{key}: must be finite")
+        if self.max_range <= 0 or self.fov < 0 or self.noise_std < 0 or self.rays < 1:
+            raise ValueError(
+                f"{self.name}: need max_range > 0, fov >= 0, noise_std >= 0, rays >= 1"
+            )
+
+    def ray_angles(self) -> Array:
+        if self.rays == 1 or self.fov == 0:
+            return np.array([self.angle])
+        return self.angle + np.linspace(-self.fov / 2, self.fov / 2, self.rays)
+
+
+def forward_ir(max_range: float = 0.8, noise_std: float = 0.0) -> tuple[RangeSensor, ...]:
+    """The paper's single forward IR sensor (a narrow cone of 10°)."""
+    return (RangeSensor("ir", 0.0, max_range, math.radians(10), 3, noise_std),)
+
+
+def range_ring(
+    count: int = 8, max_range: float = 1.5, noise_std: float = 0.0
+) -> tuple[RangeSensor, ...]:
+    """``count`` evenly spaced sensors around the head, ``ring0`` facing forward."""
+    if count < 1:
+        raise ValueError("count: need at least one sensor")
+    step = 2 * math.pi / count
+    return tuple(
+        RangeSensor(f"ring{i}", i * step, max_range, 0.0, 1, noise_std) for i in range(count)
+    )
+
+
+@dataclass(frozen=True)
+class SensorReadings:
+    """One reading of every sensor: ranges by name (``nan`` while dropped out), joints, pose."""
+
+    ranges: dict[str, float]
+    joints: Array
+    pose: Array
+    hits: dict[str, int] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, object]:
+        return {
+            "ranges": {k: (None if math.isnan(v) else round(v, 4)) for k, v in self.ranges.items()},
+            "joints": [round(float(v), 4) for v in self.joints],
+        }
+
+
+@dataclass
+class SensorSuite:
+    """Range sensors on the head plus joint-angle sensors, with one seeded noise stream."""
+
+    range_sensors: tuple[RangeSensor, ...] = field(default_factory=forward_ir)
+    joint_noise_std: float = 0.0
+    geometry: RobotGeometry = DEFAULT_GEOMETRY
+    rng: np.random.Generator = field(default_factory=lambda: np.random.default_rng(0))
+
+    def __post_init__(self) -> None:
+        names = [s.name for s in self.range_sensors]
+        if len(set(names)) != len(names):
+            raise ValueError("range_sensors: names must be unique")
+        if not (math.isfinite(self.joint_noise_std) and self.joint_noise_std >= 0):
+            raise ValueError("joint_noise_std: must be finite and >= 0")
+
+    def seed(self, seed: int | None) -> None:
+        self.rng = np.random.default_rng(seed)
+
+    def read(
+        self, world: World, pose: Array, joints: Array, dropped: frozenset[str] = frozenset()
+    ) -> SensorReadings:
+        origin = head_tip(pose, self.geometry)
+        forward = float(pose[2]) + math.pi
+        ranges: dict[str, float] = {}
+        hits: dict[str, int] = {}
+        for sensor in self.range_sensors:
+            dirs = unit_vectors(forward + sensor.ray_angles())
+            dist, what = world.ray_cast(origin, dirs, sensor.max_range)
+            i = int(np.argmin(dist))
+            value = float(dist[i])
+            if sensor.noise_std > 0:
+                value = float(
+                    np.clip(value + self.rng.normal(0, sensor.noise_std), 0, sensor.max_range)
+                )
+            ranges[sensor.name] = math.nan if sensor.name in dropped else value
+            hits[sensor.name] = int(what[i])
+        measured = np.array(joints, dtype=float)
+        if self.joint_noise_std > 0:
+            measured = measured + self.rng.normal(0, self.joint_noise_std, size=3)
+        if "joints" in dropped:
+            measured = np.full(3, np.nan)
+        return SensorReadings(ranges, measured, np.array(pose, dtype=float), hits)

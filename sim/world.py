@@ -1,0 +1,119 @@
+"""The world: rectangular bounds, obstacles, the robot's footprint and collision checks."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from sim.obstacles import Obstacle, ray_segment_hits
+from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry, head_tip, joint_positions
+
+WALL = -1  # obstacle index reported for the arena bounds
+
+
+@dataclass(frozen=True)
+class Bounds:
+    xmin: float = -10.0
+    xmax: float = 10.0
+    ymin: float = -10.0
+    ymax: float = 10.0
+
+    def __post_init__(self) -> None:
+        values = (self.xmin, self.xmax, self.ymin, self.ymax)
+        if not all(math.isfinite(v) for v in values):
+            raise ValueError("bounds: values must be finite")
+        if self.xmin >= self.xmax or self.ymin >= self.ymax:
+            raise ValueError("bounds: need xmin < xmax and ymin < ymax")
+
+    def corners(self) -> Array:
+        return np.array(
+            [
+                [self.xmin, self.ymin],
+                [self.xmax, self.ymin],
+                [self.xmax, self.ymax],
+                [self.xmin, self.ymax],
+            ]
+        )
+
+    def wall_clearance(self, points: Array) -> Array:
+        """Distance of points ``[..., 2]`` to the nearest wall (negative outside)."""
+        x, y = points[..., 0], points[..., 1]
+        out: Array = np.minimum(
+            np.minimum(x - self.xmin, self.xmax - x), np.minimum(y - self.ymin, self.ymax - y)
+        )
+        return out
+
+    def contains(self, x: float, y: float, margin: float = 0.0) -> bool:
+        return bool(self.wall_clearance(np.array([x, y])) >= margin)
+
+
+@dataclass(frozen=True)
+class Footprint:
+    """Capsules covering the robot: segment ends ``[5, 2, 2]`` (head, units 1-4) and radii ``[5]``."""
+
+    starts: Array
+    ends: Array
+    radii: Array
+
+
+def footprint(pose: Array, joints: Array, geometry: RobotGeometry = DEFAULT_GEOMETRY) -> Footprint:
+    """The head capsule and the four unit capsules at ``pose`` ``[3]`` with ``joints`` ``[3]``."""
+    js = joint_positions(pose, joints, geometry)  # [5, 2]
+    tip = head_tip(pose, geometry)
+    starts = np.vstack([tip[None, :], js[:-1]])
+    ends = np.vstack([js[:1], js[1:]])
+    radii = np.array([geometry.head_radius] + [geometry.unit_radius] * 4)
+    return Footprint(starts, ends, radii)
+
+
+@dataclass(frozen=True)
+class Contact:
+    """The first thing the footprint touches: an obstacle index (or WALL) and the body part."""
+
+    obstacle: int
+    part: int  # 0 = head, 1..4 = units
+
+    @property
+    def what(self) -> str:
+        return "wall" if self.obstacle == WALL else f"obstacle {self.obstacle}"
+
+
+@dataclass(frozen=True)
+class World:
+    bounds: Bounds = field(default_factory=Bounds)
+    obstacles: tuple[Obstacle, ...] = ()
+
+    def contact(self, fp: Footprint) -> Contact | None:
+        """The first obstacle or wall the footprint overlaps, or ``None`` when it is free."""
+        ends = np.concatenate([fp.starts, fp.ends])
+        wall = self.bounds.wall_clearance(ends) < np.concatenate([fp.radii, fp.radii])
+        if np.any(wall):
+            return Contact(WALL, int(np.argmax(wall)) % len(fp.radii))
+        for index, obstacle in enumerate(self.obstacles):
+            hit = obstacle.segment_clearance(fp.starts, fp.ends) < fp.radii
+            if np.any(hit):
+                return Contact(index, int(np.argmax(hit)))
+        return None
+
+    def ray_cast(self, origin: Array, dirs: Array, max_range: float) -> tuple[Array, Array]:
+        """First hits of rays ``[R, 2]`` from ``origin``: distances (capped at ``max_range``) and
+        what they hit (obstacle index, ``WALL``, or ``-2`` for nothing within range)."""
+        corners = self.bounds.corners()
+        hits = [ray_segment_hits(origin, dirs, corners, np.roll(corners, -1, axis=0)).min(axis=-1)]
+        hits += [obstacle.ray_cast(origin, dirs) for obstacle in self.obstacles]
+        table = np.stack(hits, axis=-1)  # [R, 1 + n_obstacles]
+        best = np.argmin(table, axis=-1)
+        dist = table[np.arange(dirs.shape[0]), best]
+        what = np.where(best == 0, WALL, best - 1)
+        what = np.where(dist <= max_range, what, -2)
+        return np.minimum(dist, max_range), what
+
+    def clearance(self, x: float, y: float) -> float:
+        """Distance from a point to the nearest obstacle (0 inside one); walls not counted."""
+        p = np.array([x, y])
+        best = math.inf
+        for obstacle in self.obstacles:
+            best = min(best, float(obstacle.segment_clearance(p[None, :], p[None, :])[0]))
+        return best
