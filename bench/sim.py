@@ -10,11 +10,12 @@ from collections.abc import Callable
 
 import numpy as np
 
-from sim.controls import FixedShape, PeriodicGait
+from sim.controls import Control, FixedShape, PeriodicGait
 from sim.reference import reference_rollout
 from sim.rollout import RolloutConfig, rollout
 
 K = 40
+Factory = Callable[[int], Callable[[float], np.ndarray]]
 
 
 def best_of(fn: Callable[[], object], repeat: int) -> float:
@@ -51,24 +52,26 @@ def main() -> None:
         ),
     ]
     for name, control, angles, rates in cases:
-        mode = "complete" if rates else "paper"
-        config = RolloutConfig(joint_mode=mode)
-        batched_states = rollout(control, config=config).states
+        measure(name, control, theta, angles, rates)
 
-        def reference() -> np.ndarray:
-            return np.stack(
-                [
-                    reference_rollout(theta[k], angles(k), rates(k) if rates else None)
-                    for k in range(K)
-                ]
-            )
 
-        diff = float(np.abs(reference() - batched_states).max())
-        tb = best_of(lambda: rollout(control, config=config), 50)
-        tr = best_of(reference, 3)
-        print(
-            f"{name:<28}{tb * 1e3:>14.3f}{tr * 1e3:>16.1f}{K / tb:>14.0f}{tr / tb:>8.0f}x{diff:>13.1e}"
+def measure(
+    name: str, control: Control, theta: np.ndarray, angles: Factory, rates: Factory | None
+) -> None:
+    config = RolloutConfig(joint_mode="complete" if rates else "paper")
+    batched_states = rollout(control, config=config).states
+
+    def reference() -> np.ndarray:
+        return np.stack(
+            [reference_rollout(theta[k], angles(k), rates(k) if rates else None) for k in range(K)]
         )
+
+    diff = float(np.abs(reference() - batched_states).max())
+    tb = best_of(lambda: rollout(control, config=config), 50)
+    tr = best_of(reference, 3)
+    print(
+        f"{name:<28}{tb * 1e3:>14.3f}{tr * 1e3:>16.1f}{K / tb:>14.0f}{tr / tb:>8.0f}x{diff:>13.1e}"
+    )
 
 
 if __name__ == "__main__":

@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 
 from sim.paper_cases import PAPER_CASES
-from sim.rollout import RolloutConfig, rollout
+from sim.rollout import PAPER_ROLLOUT, RolloutConfig, rollout
 
 
-def end_error(name: str, config: RolloutConfig = RolloutConfig()) -> float:
+def end_error(name: str, config: RolloutConfig = PAPER_ROLLOUT) -> float:
     case = PAPER_CASES[name]
     end = rollout(case.control(), config=config).end[0]
     return float(np.hypot(end[0] - case.goal[0], end[1] - case.goal[1]))

@@ -55,8 +55,15 @@ def test_states_stay_finite_within_limits(theta, phi, phases) -> None:
     for control in (FixedShape.of(theta, phi), PeriodicGait.of(theta, phases)):
         states = rollout(control, config=RolloutConfig(duration=50, dt=1)).states
         assert np.all(np.isfinite(states))
-        # speed is bounded by the screws: at most ~0.075·|θ|·√(cond) per second
-        assert np.all(np.abs(np.diff(states[0, :, :2], axis=0)) < 1.0)
+
+
+@settings(max_examples=60, deadline=None)
+@given(theta4, st.tuples(st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1)))
+def test_speed_is_bounded_within_the_learning_clamp(theta, phi) -> None:
+    # Inside ±1 rad, σ_min/σ_max of A_b stays >= 0.054 (kinematics.md §3), so |v| stays small.
+    # Beyond it the least-squares speed can blow up near singular shapes such as (0, 1.5, -1.5).
+    states = rollout(FixedShape.of(theta, phi), config=RolloutConfig(duration=10)).states[0]
+    assert np.all(np.linalg.norm(np.diff(states[:, :2], axis=0), axis=-1) < 0.5)
 
 
 def test_singular_corner_shape_is_clamped_and_finite() -> None:
