@@ -8,9 +8,9 @@ from typing import Annotated
 
 import numpy as np
 import typer
-from rich.console import Console
 from rich.table import Table
 
+from app.console import console, fail
 from app.plots import plot_trajectories
 from sim.controls import Control, FixedShape, PeriodicGait
 from sim.paper_cases import PAPER_CASES
@@ -21,7 +21,6 @@ cli = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
 )
-console = Console()
 
 
 @cli.callback()
@@ -31,11 +30,6 @@ def root() -> None:
 
 Triple = tuple[float, float, float]
 Quad = tuple[float, float, float, float]
-
-
-def fail(message: str) -> typer.Exit:
-    console.print(f"[red]error:[/red] {message}")
-    return typer.Exit(code=2)
 
 
 @cli.command()
@@ -86,6 +80,16 @@ def simulate(
     path = out or Path("out") / f"{name}.png"
     plot_trajectories(path, [states], title=name, goals=[goal] if goal else [])
     console.print(f"plot: {path}")
+
+
+def _register() -> None:
+    from app.cli_primitives import learn, library_cli
+
+    cli.command()(learn)
+    cli.add_typer(library_cli, name="library")
+
+
+_register()
 
 
 def main() -> None:

@@ -102,3 +102,38 @@ def plot_trajectories(
     fig.savefig(path, dpi=110, bbox_inches="tight")
     plt.close(fig)
     return path
+
+
+def plot_learning_curves(
+    path: Path,
+    curves: Sequence[Sequence[float]],
+    *,
+    title: str = "",
+    labels: Sequence[str] = (),
+    threshold: float | None = None,
+) -> Path:
+    """Noise-free cost per update (the paper's Figs. 3-5 (ii)), one line per run."""
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for i, curve in enumerate(curves):
+        ax.plot(
+            range(len(curve)),
+            curve,
+            marker=".",
+            lw=1.2,
+            label=labels[i] if i < len(labels) else None,
+        )
+    if threshold is not None:
+        ax.axhline(
+            threshold, color="tab:green", ls="--", lw=0.8, label=f"threshold {threshold:g} m"
+        )
+    ax.set_xlabel("update")
+    ax.set_ylabel("noise-free cost [m]")
+    ax.set_yscale("log")
+    ax.grid(True, lw=0.3)
+    if title:
+        ax.set_title(title)
+    ax.legend(fontsize=8)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110, bbox_inches="tight")
+    plt.close(fig)
+    return path

@@ -1,0 +1,198 @@
+"""CLI commands for learning primitives and managing the primitive library."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from app.console import console, fail
+from app.plots import plot_learning_curves, plot_trajectories
+from primitives.build import build_library
+from primitives.catalogue import default_specs, grid_specs
+from primitives.executors import make_executor
+from primitives.learners import LEARNERS, StopRule, UpdateRecord, make_learner
+from primitives.library import Library, LibraryError, bundled_library_path
+from primitives.params import ParameterSpace
+from primitives.shapes import SHAPES, shape_named
+from primitives.task import LearningTask
+from sim.rollout import rollout
+
+library_cli = typer.Typer(
+    help="Build, inspect and plot the primitive library.", no_args_is_help=True
+)
+
+
+def learn(
+    goal: Annotated[tuple[float, float], typer.Option(help="goal x y in the start frame [m]")],
+    shape: Annotated[
+        str, typer.Option(help=f"one of {', '.join(SHAPES)}, or 'free' (U2)")
+    ] = "straight",
+    learner: Annotated[str, typer.Option(help=f"one of {', '.join(LEARNERS)}")] = "pi2",
+    seed: Annotated[int, typer.Option(help="random seed")] = 0,
+    threshold: Annotated[float, typer.Option(help="stop below this cost [m]")] = 0.05,
+    max_updates: Annotated[int, typer.Option(help="update budget")] = 100,
+    out: Annotated[Path, typer.Option(help="learning-curve plot (PNG)")] = Path("out/learn.png"),
+) -> None:
+    """Learn one primitive, with a progress bar and a learning-curve plot."""
+    try:
+        if shape == "free":
+            space = ParameterSpace("U2")
+        else:
+            s = shape_named(shape)
+            space = ParameterSpace("U3") if s.periodic else ParameterSpace("U1", s.joints)
+        task = LearningTask(goal, space)
+        algo = make_learner(learner)
+        stop = StopRule(threshold, max_updates)
+    except ValueError as exc:
+        raise fail(str(exc)) from exc
+    columns = (
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+    )
+    with Progress(*columns, console=console, transient=True) as bar:
+        job = bar.add_task(f"{algo.name} → {goal}", total=max_updates)
+
+        def tick(record: UpdateRecord) -> None:
+            bar.update(
+                job, completed=record.update, description=f"{algo.name}: cost {record.cost:.3f} m"
+            )
+
+        result = algo.learn(task, seed, stop, progress=tick)
+    verdict = "[green]converged[/green]" if result.converged else "[yellow]not converged[/yellow]"
+    console.print(
+        f"{verdict}: cost {result.cost:.4f} m after {result.updates} updates, {result.rollouts} rollouts, "
+        f"{result.wall_time * 1e3:.0f} ms"
+    )
+    theta, joints, phases = space.split(result.params)
+    console.print(f"theta = {np.round(theta, 3).tolist()}")
+    shape_values = phases if phases is not None else joints or []
+    console.print(f"{'phases' if phases else 'joints'} = {np.round(shape_values, 3).tolist()}")
+    plot_learning_curves(
+        out, [result.curve], title=f"{algo.name}: goal {goal}, {shape}", threshold=threshold
+    )
+    console.print(f"plot: {out}")
+
+
+def _load(path: Path | None) -> Library:
+    try:
+        return Library.load(path or bundled_library_path())
+    except LibraryError as exc:
+        raise fail(str(exc)) from exc
+
+
+@library_cli.command("build")
+def library_build(
+    out: Annotated[Path, typer.Option(help="where to write the library JSON")] = Path(
+        "var/library.json"
+    ),
+    learner: Annotated[str, typer.Option(help=f"one of {', '.join(LEARNERS)}")] = "pi2",
+    seed: Annotated[int, typer.Option(help="base seed (entry i uses seed + i)")] = 0,
+    grid: Annotated[
+        bool, typer.Option(help="8 headings × 1, 2, 3 m per shape instead of Fig. 6")
+    ] = False,
+    shapes: Annotated[str, typer.Option(help="comma-separated shapes")] = ",".join(SHAPES),
+    executor: Annotated[str, typer.Option(help="serial, local (process pool) or ray")] = "local",
+    workers: Annotated[
+        int | None, typer.Option(help="worker processes (default: all cores)")
+    ] = None,
+    address: Annotated[
+        str | None, typer.Option(help="Ray cluster address, e.g. ray://head:10001")
+    ] = None,
+) -> None:
+    """Learn every primitive of the catalogue (deterministic for a seed) and save the library."""
+    try:
+        names = tuple(s.strip() for s in shapes.split(",") if s.strip())
+        for name in names:
+            shape_named(name)
+        specs = (
+            grid_specs(tuple(n for n in names if not SHAPES[n].periodic))
+            if grid
+            else default_specs(names)
+        )
+        pool = make_executor(executor, workers, address)
+        make_learner(learner)
+    except ValueError as exc:
+        raise fail(str(exc)) from exc
+    columns = (
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+    )
+    with Progress(*columns, console=console) as bar:
+        job = bar.add_task(f"learning ({pool.name})", total=len(specs))
+        library = build_library(specs, learner, seed, pool, done=lambda i: bar.advance(job))
+    library.save(out)
+    worst = max(e.cost for e in library)
+    console.print(f"{len(library)} primitives, worst end error {worst * 100:.1f} cm → {out}")
+
+
+@library_cli.command("show")
+def library_show(
+    path: Annotated[
+        Path | None, typer.Argument(help="library JSON (default: the bundled one)")
+    ] = None,
+    shape: Annotated[str | None, typer.Option(help="only this shape")] = None,
+) -> None:
+    """List the primitives: id, label, shape, goal, direction, parameters, error."""
+    library = _load(path)
+    table = Table(title=f"{len(library)} primitives")
+    for col in (
+        "id",
+        "label",
+        "shape",
+        "goal (m)",
+        "dir (°)",
+        "θ̇ (rad/s)",
+        "φ / ϕ (rad)",
+        "error (cm)",
+        "updates",
+    ):
+        table.add_column(col)
+    for e in library:
+        if shape and e.shape != shape:
+            continue
+        table.add_row(
+            e.id,
+            e.label or "",
+            e.shape,
+            f"({e.goal[0]:.2f}, {e.goal[1]:.2f})",
+            f"{e.direction:.0f}",
+            " ".join(f"{v:+.2f}" for v in e.theta),
+            " ".join(f"{v:+.2f}" for v in (e.phases or e.joints or ())),
+            f"{e.cost * 100:.1f}",
+            str(e.updates),
+        )
+    console.print(table)
+
+
+@library_cli.command("plot")
+def library_plot(
+    path: Annotated[
+        Path | None, typer.Argument(help="library JSON (default: the bundled one)")
+    ] = None,
+    shape: Annotated[str, typer.Option(help="shape to draw")] = "straight",
+    out: Annotated[Path, typer.Option(help="PNG to write")] = Path("out/library.png"),
+) -> None:
+    """Draw each primitive's trajectory from the start pose, like the paper's Fig. 6."""
+    library = _load(path)
+    entries = library.of_shape(shape)
+    if not entries:
+        raise fail(f"no primitives of shape {shape!r}; shapes: {', '.join(library.shapes())}")
+    states = [rollout(e.control()).states[0] for e in entries]
+    plot_trajectories(
+        out,
+        states,
+        title=f"{shape} primitives",
+        goals=[e.goal for e in entries],
+        outlines=2,
+        labels=[e.name for e in entries],
+    )
+    console.print(f"plot: {out}")

@@ -1,0 +1,74 @@
+"""Learning benchmarks: the paper's Experiments 1-4 over 10 seeds, and learners side by side.
+
+Part 1 reproduces Exps 1-4 with the paper's PI² (paper: 12-20 updates). Part 2 compares
+rollouts to reach < 5 cm and wall time per learner over 10 seeds on the eight Fig. 6 goals for
+two shapes (DESIGN §8 target: the best learner needs at most half the paper PI²'s rollouts).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from primitives.catalogue import FIG6_GOALS
+from primitives.learners import LEARNERS, make_learner
+from primitives.params import ParameterSpace
+from primitives.task import LearningTask
+
+SEEDS = range(10)
+EXPERIMENTS = {
+    "Exp1 straight (-3,-3)": LearningTask((-3.0, -3.0), ParameterSpace("U1", (0.0, 0.0, 0.0))),
+    "Exp2 zigzag (2,-2)": LearningTask((2.0, -2.0), ParameterSpace("U1", (0.5, -0.5, 0.5))),
+    "Exp3 all seven (-1,-3)": LearningTask((-1.0, -3.0), ParameterSpace("U2")),
+    "Exp4 periodic (-2,-2)": LearningTask((-2.0, -2.0), ParameterSpace("U3")),
+}
+SHAPES = {"straight": (0.0, 0.0, 0.0), "zigzag": (0.5, -0.5, 0.5)}
+
+
+def quartiles(values: list[float]) -> str:
+    q1, q2, q3 = np.percentile(values, [25, 50, 75])
+    return f"{q2:8.1f} [{q1:6.1f}, {q3:6.1f}]"
+
+
+def paper_experiments() -> None:
+    print("Part 1: paper PI² (K = 40, λ = 30), 10 seeds, stop below 5 cm")
+    print(
+        f"{'experiment':<26}{'updates median [q1, q3]':>26}{'min-max':>10}{'final cost [cm]':>18}{'wall [ms]':>11}"
+    )
+    pi2 = make_learner("pi2")
+    for name, task in EXPERIMENTS.items():
+        t0 = time.perf_counter()
+        results = [pi2.learn(task, seed) for seed in SEEDS]
+        wall = (time.perf_counter() - t0) / len(results) * 1e3
+        ups = [float(r.updates) for r in results]
+        costs = [r.cost * 100 for r in results]
+        span = f"{min(ups):.0f}-{max(ups):.0f}"
+        print(f"{name:<26}{quartiles(ups):>26}{span:>10}{np.median(costs):>18.2f}{wall:>11.1f}")
+
+
+def learner_comparison() -> None:
+    print("\nPart 2: rollouts to < 5 cm, 8 Fig. 6 goals x 10 seeds per shape (median [q1, q3])")
+    print(f"{'shape':<10}{'learner':<9}{'rollouts':>26}{'vs pi2':>8}{'wall [ms]':>22}{'failed':>8}")
+    for shape, joints in SHAPES.items():
+        reference = 0.0
+        for name in LEARNERS:
+            learner = make_learner(name)
+            rollouts, walls, failed = [], [], 0
+            for goal in FIG6_GOALS:
+                task = LearningTask(goal, ParameterSpace("U1", joints))
+                for seed in SEEDS:
+                    r = learner.learn(task, seed)
+                    rollouts.append(float(r.rollouts))
+                    walls.append(r.wall_time * 1e3)
+                    failed += not r.converged
+            median = float(np.median(rollouts))
+            reference = reference or median
+            print(
+                f"{shape:<10}{name:<9}{quartiles(rollouts):>26}{median / reference:>7.2f}x{quartiles(walls):>22}{failed:>8}"
+            )
+
+
+if __name__ == "__main__":
+    paper_experiments()
+    learner_comparison()

@@ -1,0 +1,86 @@
+"""PI^BB with covariance matrix adaptation (PI²-CMA, Stulp & Sigaud 2012).
+
+Parameters are sampled from N(m, C); the probability-weighted samples give the new mean and,
+by their spread around the old mean, the new covariance. Exploration therefore shrinks and
+orients itself as the cost landscape demands instead of following a fixed schedule. Any rollout
+below the threshold is a solution already (the simulator is deterministic), so it is returned.
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+from typing import Any
+
+import numpy as np
+
+from primitives.learners.base import (
+    DEFAULT_STOP,
+    LearningResult,
+    Progress,
+    Recorder,
+    StopRule,
+    probability_weights,
+)
+from primitives.task import LearningTask
+from sim.robot import Array
+
+
+@dataclass(frozen=True)
+class PI2CMA:
+    rollouts: int = 10
+    lam: float = 10.0
+    sigma0: float = 0.25  # initial exploration of speeds and joints
+    phase_sigma0: float = 0.5  # initial exploration of gait phases
+    covariance_rate: float = 0.5  # how much of the new covariance replaces the old per update
+    min_sigma: float = 1e-4
+    patience: int = 6  # updates without a 1 % better best rollout before exploration restarts
+    name: str = "pi2-cma"
+
+    def settings(self) -> dict[str, Any]:
+        return {k: v for k, v in asdict(self).items() if k != "name"}
+
+    def learn(
+        self,
+        task: LearningTask,
+        seed: int,
+        stop: StopRule = DEFAULT_STOP,
+        initial: Array | None = None,
+        progress: Progress | None = None,
+    ) -> LearningResult:
+        rng = np.random.default_rng(seed)
+        space = task.space
+        mean = space.clamp(np.zeros(space.size) if initial is None else np.asarray(initial, float))
+        sig = np.full(space.size, self.sigma0)
+        if space.kind == "U3":
+            sig[4:] = self.phase_sigma0
+        cov0 = np.diag(sig**2)
+        cov = cov0
+        rec = Recorder(progress)
+        cost = float(task.costs(mean[None, :])[0])
+        rec.seen(mean[None, :], np.array([cost]))
+        rec.record(0, cost, np.array([]), mean)
+        update, stalled, last_best = 0, 0, rec.best_cost
+        while (
+            rec.best_cost >= stop.threshold
+            and update < stop.max_updates
+            and rec.rollouts < stop.max_rollouts
+        ):
+            update += 1
+            chol = np.linalg.cholesky(cov + self.min_sigma**2 * np.eye(space.size))
+            samples = space.clamp(mean + rng.standard_normal((self.rollouts, space.size)) @ chol.T)
+            costs = task.costs(samples)
+            rec.seen(samples, costs)
+            p = probability_weights(costs, self.lam)
+            spread = samples - mean
+            cov = (1 - self.covariance_rate) * cov + self.covariance_rate * (spread.T * p) @ spread
+            mean = space.clamp(p @ samples)
+            cost = float(task.costs(mean[None, :])[0])
+            rec.seen(mean[None, :], np.array([cost]))
+            rec.record(update, cost, costs, mean)
+            stalled = 0 if rec.best_cost < 0.99 * last_best else stalled + 1
+            last_best = min(last_best, rec.best_cost)
+            if stalled >= self.patience and rec.best_params is not None:
+                # Collapsed on a poor basin (often pinned at a clamp): explore afresh from the best.
+                mean, cov, stalled = rec.best_params.copy(), cov0, 0
+        assert rec.best_params is not None
+        return rec.result(self.name, self.settings(), seed, rec.best_params, rec.best_cost, stop)

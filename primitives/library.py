@@ -1,0 +1,216 @@
+"""The primitive library: entries (DESIGN §4), a versioned JSON format, validation and queries.
+
+A file is read whole and validated before a ``Library`` exists: a corrupt, truncated, foreign
+or newer file raises ``LibraryError`` with the reason; there is never a half-loaded library.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from collections.abc import Iterable, Iterator
+from importlib import resources
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from primitives.params import Kind, ParameterSpace
+from primitives.shapes import SHAPES
+from sim.controls import Control
+from sim.rollout import JointMode, RolloutConfig
+
+FORMAT: Literal["screwsnake-primitive-library"] = "screwsnake-primitive-library"
+FORMAT_VERSION = 1
+BUNDLED = "default_library.json"
+
+Finite = Annotated[float, Field(allow_inf_nan=False)]
+Vec2 = tuple[Finite, Finite]
+Vec3 = tuple[Finite, Finite, Finite]
+Vec4 = tuple[Finite, Finite, Finite, Finite]
+
+
+class LibraryError(ValueError):
+    """A library file that cannot be used, with the reason."""
+
+
+class Frozen(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class RolloutSettings(Frozen):
+    duration: Finite = 100.0
+    dt: Finite = 1.0
+    joint_mode: JointMode = "paper"
+
+    def config(self) -> RolloutConfig:
+        return RolloutConfig(self.duration, self.dt, self.joint_mode)
+
+
+class Primitive(Frozen):
+    """One learned motor primitive: parameters that carry the robot from the start pose
+    (0, 0, ψ = 0) to ``goal`` (a start-frame displacement) in one rollout."""
+
+    id: Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.-]+$")]
+    label: str | None = None
+    shape: str
+    space: Kind
+    theta: Vec4
+    joints: Vec3 | None = None
+    phases: Vec3 | None = None
+    goal: Vec2
+    end: Vec2
+    cost: Finite
+    learner: str
+    settings: dict[str, Any] = Field(default_factory=dict)
+    seed: int
+    updates: int
+    rollouts: int
+    curve: list[Finite] = Field(default_factory=list)
+    rollout: RolloutSettings = Field(default_factory=RolloutSettings)
+
+    @model_validator(mode="after")
+    def _consistent(self) -> Primitive:
+        if self.shape not in SHAPES:
+            raise ValueError(f"shape: unknown {self.shape!r}")
+        if self.periodic != (self.phases is not None) or self.periodic == (self.joints is not None):
+            raise ValueError(
+                "a periodic primitive has phases and no joints; a fixed one joints only"
+            )
+        return self
+
+    @property
+    def periodic(self) -> bool:
+        return self.space == "U3"
+
+    @property
+    def direction(self) -> float:
+        """Direction of the goal in the start frame, degrees counter-clockwise from +x."""
+        return math.degrees(math.atan2(self.goal[1], self.goal[0]))
+
+    @property
+    def distance(self) -> float:
+        return math.hypot(*self.goal)
+
+    @property
+    def name(self) -> str:
+        return self.label or self.id
+
+    def parameter_space(self) -> ParameterSpace:
+        return ParameterSpace(self.space, self.joints or (0.0, 0.0, 0.0))
+
+    def params(self) -> np.ndarray:
+        """U = [θ̇1..4, φ1..3] (eq. 15), or [θ̇, ϕ] for a periodic primitive."""
+        return np.array([*self.theta, *(self.phases or self.joints or (0.0, 0.0, 0.0))])
+
+    def control(self) -> Control:
+        return ParameterSpace("U3" if self.periodic else "U2").control(self.params())
+
+
+class LibraryFile(Frozen):
+    format: Literal["screwsnake-primitive-library"]
+    version: int
+    code_version: str
+    entries: list[Primitive]
+
+    @model_validator(mode="after")
+    def _unique(self) -> LibraryFile:
+        names = [e.id for e in self.entries] + [e.label for e in self.entries if e.label]
+        dup = {n for n in names if names.count(n) > 1}
+        if dup:
+            raise ValueError(f"entries: duplicate ids or labels {sorted(dup)}")
+        return self
+
+
+class Library:
+    """An immutable, validated set of primitives with lookups by id, label, shape and goal."""
+
+    def __init__(self, entries: Iterable[Primitive], code_version: str = "") -> None:
+        self.file = LibraryFile(
+            format=FORMAT, version=FORMAT_VERSION, code_version=code_version, entries=list(entries)
+        )
+        self._by_name = {e.id: e for e in self.file.entries}
+        self._by_name.update({e.label: e for e in self.file.entries if e.label})
+
+    def __len__(self) -> int:
+        return len(self.file.entries)
+
+    def __iter__(self) -> Iterator[Primitive]:
+        return iter(self.file.entries)
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._by_name
+
+    def get(self, name: str) -> Primitive:
+        """An entry by id or paper label (``P1s``); ``KeyError`` names what is missing."""
+        try:
+            return self._by_name[name]
+        except KeyError:
+            raise KeyError(f"primitive {name!r} is not in the library") from None
+
+    def shapes(self) -> list[str]:
+        return sorted({e.shape for e in self})
+
+    def of_shape(self, shape: str) -> list[Primitive]:
+        return [e for e in self if e.shape == shape]
+
+    def nearest(self, displacement: tuple[float, float], shape: str) -> Primitive:
+        """The entry of ``shape`` whose start-frame goal is closest to ``displacement``."""
+        candidates = self.of_shape(shape)
+        if not candidates:
+            raise KeyError(f"no primitive of shape {shape!r} in the library")
+        d = np.asarray(displacement, dtype=float)
+        return min(candidates, key=lambda e: float(np.linalg.norm(np.asarray(e.goal) - d)))
+
+    # -- persistence ---------------------------------------------------------------------
+    def to_json(self) -> str:
+        return json.dumps(self.file.model_dump(mode="json"), indent=1, sort_keys=True) + "\n"
+
+    def save(self, path: Path) -> Path:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(path.suffix + ".tmp")
+        tmp.write_text(self.to_json())
+        tmp.replace(path)  # atomic: readers never see a half-written file
+        return path
+
+    @classmethod
+    def from_json(cls, text: str, source: str = "library") -> Library:
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise LibraryError(
+                f"{source}: not valid JSON ({exc.msg} at line {exc.lineno})"
+            ) from exc
+        if not isinstance(data, dict) or data.get("format") != FORMAT:
+            raise LibraryError(
+                f"{source}: not a screwsnake primitive library (format != {FORMAT!r})"
+            )
+        version = data.get("version")
+        if not isinstance(version, int) or version > FORMAT_VERSION or version < 1:
+            raise LibraryError(
+                f"{source}: format version {version!r} is not supported (this code reads 1..{FORMAT_VERSION})"
+            )
+        try:
+            file = LibraryFile.model_validate(data)
+        except ValidationError as exc:
+            first = exc.errors()[0]
+            where = ".".join(str(p) for p in first["loc"])
+            raise LibraryError(f"{source}: invalid at {where}: {first['msg']}") from exc
+        return cls(file.entries, file.code_version)
+
+    @classmethod
+    def load(cls, path: Path) -> Library:
+        try:
+            text = path.read_text()
+        except OSError as exc:
+            raise LibraryError(f"{path}: cannot read ({exc.strerror})") from exc
+        return cls.from_json(text, str(path))
+
+
+def bundled_library_path() -> Path:
+    return Path(str(resources.files("primitives") / "data" / BUNDLED))
+
+
+def load_bundled() -> Library:
+    return Library.load(bundled_library_path())

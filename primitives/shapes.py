@@ -1,0 +1,53 @@
+"""Named body shapes of the library (DESIGN §4) and classification of sensed joint angles."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+
+@dataclass(frozen=True)
+class Shape:
+    """A body shape: fixed joint angles, or ``periodic`` (the gait of eq. 13, joints from phases)."""
+
+    name: str
+    joints: tuple[float, float, float]
+    periodic: bool = False
+    suffix: str = ""  # the paper's label suffix: P1s, P2a, P4z, P4pe
+
+
+SHAPES: dict[str, Shape] = {
+    s.name: s
+    for s in (
+        Shape("straight", (0.0, 0.0, 0.0), suffix="s"),
+        Shape("zigzag", (0.5, -0.5, 0.5), suffix="z"),
+        Shape("arc", (0.3, 0.3, 0.3), suffix="a"),
+        Shape("semi-arc", (0.3, 0.3, 0.0)),
+        Shape("semi-zigzag", (0.5, -0.5, -0.1)),
+        Shape("periodic", (0.0, 0.0, 0.0), periodic=True, suffix="pe"),
+    )
+}
+FIXED_SHAPES = tuple(name for name, s in SHAPES.items() if not s.periodic)
+
+
+def shape_named(name: str) -> Shape:
+    try:
+        return SHAPES[name]
+    except KeyError:
+        raise ValueError(f"shape: unknown {name!r}; known: {', '.join(SHAPES)}") from None
+
+
+def classify_shape(joints: ArrayLike, tolerance: float = 0.15) -> str | None:
+    """The fixed named shape nearest to sensed ``joints`` (max-abs distance within ``tolerance``)."""
+    j = np.asarray(joints, dtype=float)
+    if j.shape != (3,) or not np.all(np.isfinite(j)):
+        return None
+    best, best_d = None, math.inf
+    for name in FIXED_SHAPES:
+        d = float(np.max(np.abs(j - np.array(SHAPES[name].joints))))
+        if d < best_d:
+            best, best_d = name, d
+    return best if best_d <= tolerance else None
