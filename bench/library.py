@@ -32,10 +32,16 @@ def main() -> None:
             t0 = time.perf_counter()
             library = build_library(specs, executor=executor)
             wall = time.perf_counter() - t0
-            same = "" if reference is None else ("same" if library.to_json() == reference else "DIFFERENT")
+            same = (
+                ""
+                if reference is None
+                else ("same" if library.to_json() == reference else "DIFFERENT")
+            )
             reference = reference or library.to_json()
             worst = max(e.cost for e in library) * 100
-            print(f"{suite:<36}{name:<30}{len(library):>5} primitives {wall:7.2f} s  worst {worst:.1f} cm  {same}")
+            print(
+                f"{suite:<36}{name:<30}{len(library):>5} primitives {wall:7.2f} s  worst {worst:.1f} cm  {same}"
+            )
 
 
 if __name__ == "__main__":

@@ -1,0 +1,105 @@
+"""Typed replanning triggers (DESIGN §5) and the record each replan leaves."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from domain.knowledge import Goal
+from sim.obstacles import Obstacle
+
+
+@dataclass(frozen=True)
+class ObstacleSensed:
+    """A precondition broke: an obstacle was sensed on or near the next edge."""
+
+    obstacle: Obstacle
+    kind: str = "obstacle_sensed"
+
+    def detail(self) -> dict[str, Any]:
+        return {"obstacle": self.obstacle.to_dict()}
+
+
+@dataclass(frozen=True)
+class ShapeChanged:
+    """The joint-angle sensors disagree with the commanded shape (a deformation)."""
+
+    shape: str
+    joints: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    kind: str = "shape_changed"
+
+    def detail(self) -> dict[str, Any]:
+        return {"shape": self.shape, "joints": list(self.joints)}
+
+
+@dataclass(frozen=True)
+class NoProgress:
+    """The current action failed or made no progress towards its target."""
+
+    action: str
+    reason: str = "no progress"
+    kind: str = "no_progress"
+
+    def detail(self) -> dict[str, Any]:
+        return {"action": self.action, "reason": self.reason}
+
+
+@dataclass(frozen=True)
+class GoalsChanged:
+    """A goal was added or removed (or reached: the remaining goals changed)."""
+
+    added: tuple[Goal, ...] = ()
+    removed: tuple[Goal, ...] = ()
+    kind: str = "goals_changed"
+
+    def detail(self) -> dict[str, Any]:
+        return {
+            "added": [(g.x, g.y) for g in self.added],
+            "removed": [(g.x, g.y) for g in self.removed],
+        }
+
+
+@dataclass(frozen=True)
+class Timeout:
+    """An action ran past its time budget."""
+
+    action: str
+    kind: str = "timeout"
+
+    def detail(self) -> dict[str, Any]:
+        return {"action": self.action}
+
+
+@dataclass(frozen=True)
+class Initial:
+    """The first plan of a goal (not a replan, but recorded the same way)."""
+
+    kind: str = "initial"
+
+    def detail(self) -> dict[str, Any]:
+        return {}
+
+
+Trigger = ObstacleSensed | ShapeChanged | NoProgress | GoalsChanged | Timeout | Initial
+
+
+@dataclass(frozen=True)
+class ReplanRecord:
+    trigger: str
+    detail: dict[str, Any]
+    at: float  # model time
+    latency_ms: float
+    old: list[str] = field(default_factory=list)
+    new: list[str] = field(default_factory=list)
+    status: str = "solved"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "trigger": self.trigger,
+            "detail": self.detail,
+            "at": self.at,
+            "latency_ms": round(self.latency_ms, 3),
+            "old": self.old,
+            "new": self.new,
+            "status": self.status,
+        }
