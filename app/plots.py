@@ -73,6 +73,7 @@ def plot_trajectories(
     outlines: int = 4,
     labels: Sequence[str] = (),
     marks: Sequence[tuple[float, float, str]] = (),
+    points: Sequence[tuple[float, float]] = (),
 ) -> Path:
     """Write a PNG of state trajectories (``[N, 6]`` each) with outlines at a few instants."""
     fig, ax = plt.subplots(figsize=(7, 7))
@@ -86,6 +87,9 @@ def plot_trajectories(
             draw_robot(ax, states[k], color=color)
     for gx, gy in goals:
         ax.plot(gx, gy, "o", ms=9, mfc="none", mec="tab:green", mew=2)
+    if points:
+        pts = np.asarray(points)
+        ax.plot(pts[:, 0], pts[:, 1], ".", color="tab:purple", ms=3, label="sensed")
     for mx, my, text in marks:
         ax.plot(mx, my, "x", color="tab:orange", ms=8, mew=2)
         ax.annotate(text, (mx, my), fontsize=7, xytext=(3, 3), textcoords="offset points")

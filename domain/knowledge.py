@@ -40,6 +40,7 @@ class WorldKnowledge:
     known: tuple[Obstacle, ...] = ()
     sensed: tuple[Obstacle, ...] = ()
     bounds: Bounds = field(default_factory=Bounds)
+    joints: tuple[float, float, float] | None = None  # sensed; None: not known (no body check)
 
     @property
     def obstacles(self) -> tuple[Obstacle, ...]:
@@ -48,5 +49,7 @@ class WorldKnowledge:
     def with_sensed(self, obstacle: Obstacle) -> WorldKnowledge:
         return replace(self, sensed=(*self.sensed, obstacle))
 
-    def moved(self, pose: tuple[float, float, float]) -> WorldKnowledge:
-        return replace(self, pose=pose)
+    def moved(
+        self, pose: tuple[float, float, float], joints: tuple[float, float, float] | None = None
+    ) -> WorldKnowledge:
+        return replace(self, pose=pose, joints=joints if joints is not None else self.joints)

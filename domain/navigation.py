@@ -145,6 +145,7 @@ class NavigationPlanner:
         search: str = "gbf",
         heuristic: str = "roadmap",
         time_limit: float = 5.0,
+        body_margin: float = 0.05,
     ) -> None:
         check_names(search, None if heuristic == "roadmap" else heuristic)
         self.library = library
@@ -155,6 +156,10 @@ class NavigationPlanner:
         self.active = np.ones(self.roadmap.edge_count, dtype=bool)
         self.goal_node_of: dict[tuple[float, float], int] = {}
         self.knowledge = knowledge
+        self.body_margin = body_margin
+        self._body_key: tuple[float, ...] | None = None
+        self._body_checked = 0
+        self.body_ok = np.ones(self.roadmap.edge_count, dtype=bool)
         self._edge_ops: dict[str, list[Operator]] = {}
         self.task: IndexedTask | None = None
         self.last: NavigationPlan | None = None
@@ -191,9 +196,10 @@ class NavigationPlanner:
         self.knowledge = knowledge
         self.goal_nodes = [self._goal_node(g) for g in knowledge.goals]  # may extend the roadmap
         self._block(knowledge.obstacles)
+        self._body_mask(knowledge)
         self.start_node = len(self.roadmap.points)
         x, y, psi = knowledge.pose
-        self.start_links = self.roadmap.links(x, y, self.applied, self.bounds)
+        self.start_links = self.roadmap.links(x, y, self.applied, self.bounds, escape=True)
         self.ordered = knowledge.order == "given"
         self.psi_deg = math.degrees(psi)
         self.headings = groundable_headings(self.library, knowledge.shape, self.psi_deg, HEADINGS)
@@ -212,7 +218,8 @@ class NavigationPlanner:
         extra = facts[n_nodes:]
         self.stage_index = {f: k for k, f in enumerate(extra)} if self.ordered else {}
         self.visited_facts = [] if self.ordered else list(extra)
-        ops = [op for e, op in self._edge_operators(knowledge.shape) if self.active[e]]
+        usable = self.active & self.body_ok
+        ops = [op for e, op in self._edge_operators(knowledge.shape) if usable[e]]
         ops += self._start_operators(knowledge.shape)
         ops += self._visit_operators()
         ops.sort(key=lambda op: op.name)
@@ -227,6 +234,36 @@ class NavigationPlanner:
             self.task.set_operators(ops)
         adjacency = self._adjacency()
         self.hops = [self.roadmap.hops_from(g, adjacency, n_nodes) for g in self.goal_nodes]
+
+    def _body_mask(self, knowledge: WorldKnowledge) -> None:
+        """Edges the whole body can travel at the current heading and joints (when known).
+
+        Recomputed when the heading turns by more than 5°, the joints change or obstacles
+        are added; otherwise kept.
+        """
+        if knowledge.joints is None:
+            self.body_ok = np.ones(self.roadmap.edge_count, dtype=bool)
+            return
+        psi = knowledge.pose[2]
+        key = (
+            round(math.degrees(psi) / 5),
+            *np.round(knowledge.joints, 2),
+            self.roadmap.edge_count,
+        )
+        joints = np.asarray(knowledge.joints)
+        if key != self._body_key:
+            self.body_ok = self.roadmap.body_clear_edges(
+                psi, joints, self.applied, self.bounds, self.body_margin
+            )
+            self._body_key, self._body_checked = key, len(self.applied)
+        elif self._body_checked < len(
+            self.applied
+        ):  # same pose class: check only the new obstacles
+            new = self.applied[self._body_checked :]
+            self.body_ok &= self.roadmap.body_clear_edges(
+                psi, joints, new, self.bounds, self.body_margin
+            )
+            self._body_checked = len(self.applied)
 
     def _move(self, a: int, b: int, heading: float, shape: str) -> Operator:
         name = f"(move {self.node_name(a)} {self.node_name(b)} {heading_name(heading)} {shape})"
@@ -263,7 +300,7 @@ class NavigationPlanner:
         return ops
 
     def _adjacency(self) -> dict[int, list[int]]:
-        adjacency = self.roadmap.adjacency(self.active & self._heading_mask())
+        adjacency = self.roadmap.adjacency(self.active & self.body_ok & self._heading_mask())
         for n, h in self.start_links:  # both ways: hops are measured from the goals outwards
             if h in self.headings:
                 adjacency.setdefault(self.start_node, []).append(n)
@@ -348,7 +385,7 @@ class NavigationPlanner:
         waypoints = [self.node_name(v) for v in range(self.start_node + 1)]
         init = [f"(at {START})", f"(body {k.shape})"]
         init += [f"(groundable {heading_name(h)} {k.shape})" for h in self.headings]
-        for e in np.flatnonzero(self.active):
+        for e in np.flatnonzero(self.active & self.body_ok):
             init.append(
                 f"(edge {self.node_name(road.starts[e])} {self.node_name(road.ends[e])} {heading_name(road.headings[e])})"
             )

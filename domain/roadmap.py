@@ -17,12 +17,24 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sim.obstacles import Obstacle
-from sim.robot import Array
+from sim.robot import DEFAULT_GEOMETRY, Array, head_tip, joint_positions
 from sim.world import Bounds
 
 GRID_DIRECTIONS = ((1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1), (0, -1), (1, -1))
 MAX_NODES = 40_000
 Mask = NDArray[np.bool_]
+
+
+def body_capsules(points: Array, psi: float, joints: Array) -> tuple[Array, Array, Array]:
+    """The footprint capsules (head + 4 units) with the head at each of ``points`` ``[N, 2]``."""
+    poses = np.column_stack([points, np.full(len(points), psi)])
+    js = joint_positions(poses, np.broadcast_to(joints, (len(points), 3)))  # [N, 5, 2]
+    tips = head_tip(poses)[:, None, :]
+    starts = np.concatenate([tips, js[:, :-1]], axis=1)
+    ends = np.concatenate([js[:, :1], js[:, 1:]], axis=1)
+    g = DEFAULT_GEOMETRY
+    radii = np.array([g.head_radius] + [g.unit_radius] * 4)
+    return starts, ends, radii
 
 
 def heading_of(dx: float, dy: float, step: float = 45.0) -> float:
@@ -116,16 +128,33 @@ class Roadmap:
         return node
 
     def links(
-        self, x: float, y: float, obstacles: Sequence[Obstacle], bounds: Bounds
+        self,
+        x: float,
+        y: float,
+        obstacles: Sequence[Obstacle],
+        bounds: Bounds,
+        escape: bool = False,
     ) -> list[tuple[int, float]]:
-        """Clear grid waypoints within 1.5 spacings of (x, y), with the heading towards each."""
+        """Clear grid waypoints within 1.5 spacings of (x, y), with the heading towards each.
+
+        ``escape``: (x, y) is where the robot already is, possibly closer to an obstacle than
+        the inflation (it was just sensed); links then only must not get closer than it is.
+        """
         grid = self.points[: self.grid_size]
         d = np.linalg.norm(grid - [x, y], axis=-1)
         near = np.flatnonzero(d <= 1.5 * self.spacing)
         if near.size == 0:
             near = np.argsort(d)[:4]
         here = np.repeat([[x, y]], near.size, axis=0)
-        ok = self.segments_clear(here, grid[near], obstacles)
+        if escape:
+            p = np.array([[x, y]])
+            now = min([float(ob.segment_clearance(p, p)[0]) for ob in obstacles], default=np.inf)
+            need = min(self.inflation, 0.9 * now)
+            ok: Mask = np.ones(near.size, dtype=bool)
+            for ob in obstacles:
+                ok &= ob.segment_clearance(here, grid[near]) >= need
+        else:
+            ok = self.segments_clear(here, grid[near], obstacles)
         ok &= self.point_clear(grid[near], obstacles, bounds)
         out = []
         for n in near[ok]:
@@ -133,6 +162,36 @@ class Roadmap:
             if math.hypot(dx, dy) > 1e-9:
                 out.append((int(n), heading_of(float(dx), float(dy))))
         return out
+
+    def body_clear_edges(
+        self,
+        psi: float,
+        joints: Array,
+        obstacles: Sequence[Obstacle],
+        bounds: Bounds,
+        margin: float,
+    ) -> Mask:
+        """Edges along which the whole body (heading ``psi``, ``joints``) keeps ``margin`` clear.
+
+        The head follows the edge; the body trails behind it at the current heading. Checked at
+        both ends and the middle of each edge: the body translates between them.
+        """
+        if not self.starts:
+            return np.zeros(0, dtype=bool)
+        a, b = self.points[self.starts], self.points[self.ends]
+        ok: Mask = np.ones(len(a), dtype=bool)
+        for where in (a, b, (a + b) / 2):
+            starts, ends, radii = body_capsules(where, psi, joints)
+            clear = np.ones(len(a), dtype=bool)
+            for ob in obstacles:
+                gap = ob.segment_clearance(starts, ends) - radii  # [E, 5]
+                clear &= np.all(gap >= margin, axis=-1)
+            wall = bounds.wall_clearance(np.concatenate([starts, ends], axis=-2)) - np.concatenate(
+                [radii, radii]
+            )
+            clear &= np.all(wall >= 0, axis=-1)
+            ok &= clear
+        return ok
 
     def edges_blocked_by(self, obstacle: Obstacle) -> NDArray[np.intp]:
         """Indices of edges that pass closer than ``inflation`` to ``obstacle``."""

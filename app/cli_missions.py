@@ -1,0 +1,105 @@
+"""CLI commands that run missions headless: `screwsnake mission FILE`."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import numpy as np
+import typer
+from rich.table import Table
+
+from app.console import console, fail
+from app.executor.context import MissionResult
+from app.executor.runner import MissionError, MissionRunner
+from app.missions.spec import MissionFileError, MissionSpec, load_mission
+from app.plots import plot_trajectories
+from primitives.library import Library, LibraryError, bundled_library_path
+from sim.obstacles import Circle
+from sim.world import World
+
+
+def load_library(path: Path | None) -> Library:
+    try:
+        return Library.load(path or bundled_library_path())
+    except LibraryError as exc:
+        raise fail(str(exc)) from exc
+
+
+def plot_mission(spec: MissionSpec, result: MissionResult, out: Path, sensed: list[Circle]) -> Path:
+    states = np.array([row[1:] for row in result.trajectory])
+    world = World(spec.bounds.bounds(), tuple(spec.world_obstacles()))
+    replans = [(e["t"], e["trigger"]) for e in result.events if e["kind"] == "replan"]
+    times = np.array([row[0] for row in result.trajectory])
+    marks = []
+    for t, trigger in replans:
+        k = int(np.searchsorted(times, t))
+        k = min(k, len(states) - 1)
+        marks.append((float(states[k, 0]), float(states[k, 1]), trigger))
+    title = f"{spec.name}: {result.status} ({result.model_time:g} model s)"
+    return plot_trajectories(
+        out,
+        [states],
+        title=title,
+        goals=[(g.x, g.y) for g in result.goals],
+        world=world,
+        outlines=6,
+        marks=marks,
+        points=[(c.x, c.y) for c in sensed],
+    )
+
+
+def print_summary(result: MissionResult) -> None:
+    colour = "green" if result.status == "succeeded" else "red"
+    console.print(f"[bold {colour}]{result.status}[/]: {result.reason}")
+    table = Table(title="goals")
+    for col in ("#", "x", "y", "tolerance (m)", "reached", "error (m)", "at (s)"):
+        table.add_column(col, justify="right")
+    for i, g in enumerate(result.goals):
+        err = "" if g.error is None else f"{g.error:.3f}"
+        at = "" if g.reached_at is None else f"{g.reached_at:g}"
+        table.add_row(
+            str(i),
+            f"{g.x:g}",
+            f"{g.y:g}",
+            f"{g.tolerance:g}",
+            "yes" if g.reached else "no",
+            err,
+            at,
+        )
+    console.print(table)
+    if result.replans:
+        rt = Table(title=f"{len(result.replans)} replans")
+        for col in ("at (s)", "trigger", "latency (ms)", "status"):
+            rt.add_column(col)
+        for r in result.replans:
+            rt.add_row(f"{r.at:g}", r.trigger, f"{r.latency_ms:.1f}", r.status)
+        console.print(rt)
+    ratio = result.model_time / max(result.wall_time, 1e-9)
+    console.print(
+        f"collisions: {result.collisions}   model time: {result.model_time:g} s   "
+        f"wall time: {result.wall_time:.2f} s   ({ratio:.0f}x real time)"
+    )
+
+
+def mission(
+    file: Annotated[Path, typer.Argument(help="mission JSON (see examples/)")],
+    out: Annotated[Path | None, typer.Option(help="trajectory plot (PNG)")] = None,
+    library: Annotated[
+        Path | None, typer.Option(help="primitive library (default: bundled)")
+    ] = None,
+) -> None:
+    """Run a mission headless, print a summary and write a trajectory plot."""
+    try:
+        spec = load_mission(file)
+        runner = MissionRunner(spec, load_library(library))
+    except (MissionFileError, MissionError) as exc:
+        raise fail(str(exc)) from exc
+    result = runner.run()
+    print_summary(result)
+    path = plot_mission(
+        spec, result, out or Path("out") / f"{spec.name}.png", list(runner.ctx.knowledge.sensed)
+    )  # type: ignore[arg-type]
+    console.print(f"plot: {path}")
+    if result.status != "succeeded":
+        raise typer.Exit(code=1)

@@ -1,0 +1,246 @@
+"""A mission as data (DESIGN §10): start, shape, goals, obstacles, events, planner, limits.
+
+Validated strictly: finite numbers only, bounded lists, coordinates inside the arena, goals and
+start outside obstacles, unknown fields rejected. The same model backs mission files and
+``POST /missions``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Annotated, Any, Literal
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from primitives.shapes import SHAPES, shape_named
+from sim.obstacles import Obstacle, obstacle_from_dict
+from sim.world import Bounds
+
+MAX_GOALS = 50
+MAX_OBSTACLES = 200
+MAX_EVENTS = 20
+MAX_CHAIN = 50
+ARENA_LIMIT = 500.0  # metres from the origin
+Coord = Annotated[float, Field(allow_inf_nan=False, ge=-ARENA_LIMIT, le=ARENA_LIMIT)]
+Angle = Annotated[float, Field(allow_inf_nan=False, ge=-100.0, le=100.0)]
+Joint = Annotated[float, Field(allow_inf_nan=False, ge=-math.pi / 2, le=math.pi / 2)]
+Positive = Annotated[float, Field(allow_inf_nan=False, gt=0)]
+
+
+class Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class Pose(Strict):
+    x: Coord = 0.0
+    y: Coord = 0.0
+    psi: Angle = 0.0
+
+
+class Point(Strict):
+    x: Coord
+    y: Coord
+
+
+class GoalSpec(Strict):
+    x: Coord
+    y: Coord
+    tolerance: Annotated[float, Field(allow_inf_nan=False, gt=0, le=5.0)] = 0.1
+
+
+class JointsShape(Strict):
+    joints: tuple[Joint, Joint, Joint]
+
+
+class CircleSpec(Strict):
+    type: Literal["circle"]
+    x: Coord
+    y: Coord
+    radius: Annotated[float, Field(allow_inf_nan=False, gt=0, le=100)]
+    known: bool = True
+
+
+class RectangleSpec(Strict):
+    type: Literal["rectangle"]
+    x: Coord
+    y: Coord
+    width: Annotated[float, Field(allow_inf_nan=False, gt=0, le=1000)]
+    height: Annotated[float, Field(allow_inf_nan=False, gt=0, le=1000)]
+    angle: Angle = 0.0
+    known: bool = True
+
+
+class PolygonSpec(Strict):
+    type: Literal["polygon"]
+    points: Annotated[list[tuple[Coord, Coord]], Field(min_length=3, max_length=64)]
+    known: bool = True
+
+
+ObstacleSpec = Annotated[CircleSpec | RectangleSpec | PolygonSpec, Field(discriminator="type")]
+
+
+class BoundsSpec(Strict):
+    xmin: Coord = -10.0
+    xmax: Coord = 10.0
+    ymin: Coord = -10.0
+    ymax: Coord = 10.0
+
+    @model_validator(mode="after")
+    def _ordered(self) -> BoundsSpec:
+        if self.xmin >= self.xmax or self.ymin >= self.ymax:
+            raise ValueError("need xmin < xmax and ymin < ymax")
+        return self
+
+    def bounds(self) -> Bounds:
+        return Bounds(self.xmin, self.xmax, self.ymin, self.ymax)
+
+
+class DeformEvent(Strict):
+    t: Annotated[float, Field(allow_inf_nan=False, ge=0, le=1e6)]
+    type: Literal["deform"]
+    joints: tuple[Joint, Joint, Joint]
+
+
+class PlannerSpec(Strict):
+    domain: Literal["navigation", "reactive"] = "navigation"
+    search: Literal["gbf", "astar", "wastar", "ehs", "bfs"] = "gbf"
+    heuristic: Literal["roadmap", "hff", "hadd", "hmax", "lmcut", "landmark", "blind"] = "roadmap"
+    time_limit: Annotated[float, Field(allow_inf_nan=False, gt=0, le=120)] = 5.0
+    spacing: Annotated[float, Field(allow_inf_nan=False, ge=0.1, le=5)] = 0.5
+    margin: Annotated[float, Field(allow_inf_nan=False, ge=0, le=2)] = 0.2
+
+
+class SensorSpec(Strict):
+    ring: Annotated[int, Field(ge=0, le=32)] = 8
+    range: Annotated[float, Field(allow_inf_nan=False, gt=0, le=10)] = 1.0
+    ir_range: Annotated[float, Field(allow_inf_nan=False, gt=0, le=10)] = 0.8
+    noise: Annotated[float, Field(allow_inf_nan=False, ge=0, le=0.5)] = 0.0
+
+
+class Reach(Strict):
+    x: Coord
+    y: Coord
+    tolerance: Annotated[float, Field(allow_inf_nan=False, gt=0, le=5.0)] = 0.1
+
+
+class Until(Strict):
+    """When a chain step ends: a point reached, a duration, or a sensor threshold."""
+
+    reach: Reach | None = None
+    duration: Annotated[float, Field(allow_inf_nan=False, gt=0, le=1e5)] | None = None
+    sensor: str | None = None
+    below: Annotated[float, Field(allow_inf_nan=False)] | None = None
+    above: Annotated[float, Field(allow_inf_nan=False)] | None = None
+    timeout: Annotated[float, Field(allow_inf_nan=False, gt=0, le=1e5)] | None = None
+
+    @model_validator(mode="after")
+    def _one(self) -> Until:
+        kinds = [self.reach is not None, self.duration is not None, self.sensor is not None]
+        if sum(kinds) != 1:
+            raise ValueError("give exactly one of reach, duration or sensor")
+        if self.sensor is not None and (self.below is None) == (self.above is None):
+            raise ValueError("a sensor condition needs exactly one of below or above")
+        return self
+
+
+class InterpolateSpec(Strict):
+    from_: Annotated[list[str], Field(alias="from", min_length=3, max_length=3)]
+    goal: tuple[Coord, Coord]
+    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+
+
+class ChainStep(Strict):
+    primitive: str | None = None
+    interpolate: InterpolateSpec | None = None
+    until: Until
+
+    @model_validator(mode="after")
+    def _one(self) -> ChainStep:
+        if (self.primitive is None) == (self.interpolate is None):
+            raise ValueError("give exactly one of primitive or interpolate")
+        return self
+
+
+class MissionSpec(Strict):
+    name: Annotated[str, Field(max_length=120)] = "mission"
+    start: Pose = Pose()
+    shape: str | JointsShape = "straight"
+    goals: Annotated[list[GoalSpec], Field(max_length=MAX_GOALS)] = []
+    order: Literal["given", "any"] = "given"
+    obstacles: Annotated[list[ObstacleSpec], Field(max_length=MAX_OBSTACLES)] = []
+    bounds: BoundsSpec = BoundsSpec()
+    events: Annotated[list[DeformEvent], Field(max_length=MAX_EVENTS)] = []
+    planner: PlannerSpec = PlannerSpec()
+    sensors: SensorSpec = SensorSpec()
+    chain: Annotated[list[ChainStep], Field(max_length=MAX_CHAIN)] = []
+    speed: Annotated[float, Field(allow_inf_nan=False, ge=0, le=10_000)] = 0.0
+    seed: Annotated[int, Field(ge=0, le=2**32 - 1)] = 0
+    time_limit: Annotated[float, Field(allow_inf_nan=False, gt=0, le=36_000)] = 1800.0
+    max_replans: Annotated[int, Field(ge=0, le=10_000)] = 500
+
+    @model_validator(mode="after")
+    def _consistent(self) -> MissionSpec:
+        if not self.goals and not self.chain:
+            raise ValueError("goals: give at least one goal, or a chain of primitives")
+        if isinstance(self.shape, str) and self.shape not in SHAPES:
+            raise ValueError(f"shape: unknown {self.shape!r}; known: {', '.join(SHAPES)}")
+        bounds = self.bounds.bounds()
+        obstacles = self.world_obstacles()
+        if not bounds.contains(self.start.x, self.start.y):
+            raise ValueError("start: outside the bounds")
+        for i, g in enumerate(self.goals):
+            if not bounds.contains(g.x, g.y):
+                raise ValueError(f"goals.{i}: outside the bounds")
+            for j, ob in enumerate(obstacles):
+                if ob.contains(_xy(g.x, g.y))[0]:
+                    raise ValueError(f"goals.{i}: inside obstacles.{j}")
+        for j, ob in enumerate(obstacles):
+            if ob.contains(_xy(self.start.x, self.start.y))[0]:
+                raise ValueError(f"start: inside obstacles.{j}")
+        return self
+
+    def world_obstacles(self) -> list[Obstacle]:
+        return [obstacle_from_dict(o.model_dump()) for o in self.obstacles]
+
+    def start_joints(self) -> tuple[float, float, float]:
+        if isinstance(self.shape, JointsShape):
+            return self.shape.joints
+        return shape_named(self.shape).joints
+
+    def shape_name(self) -> str:
+        return self.shape if isinstance(self.shape, str) else "custom"
+
+
+def _xy(x: float, y: float) -> Any:
+    import numpy as np
+
+    return np.array([[x, y]])
+
+
+class MissionFileError(ValueError):
+    """A mission file that cannot be used, with the field and the reason."""
+
+
+def load_mission(path: Path) -> MissionSpec:
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise MissionFileError(f"{path}: cannot read ({exc.strerror})") from exc
+    return parse_mission(text, str(path))
+
+
+def parse_mission(text: str, source: str = "mission") -> MissionSpec:
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise MissionFileError(
+            f"{source}: not valid JSON ({exc.msg} at line {exc.lineno})"
+        ) from exc
+    try:
+        return MissionSpec.model_validate(data)
+    except ValidationError as exc:
+        first = exc.errors()[0]
+        where = ".".join(str(p) for p in first["loc"]) or "mission"
+        raise MissionFileError(f"{source}: {where}: {first['msg']}") from exc
