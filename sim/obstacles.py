@@ -120,6 +120,7 @@ class Polygon:
     name: str = ""
     known: bool = True
     vertices: Array = field(init=False, repr=False, compare=False)
+    _edges: tuple[Array, Array] = field(init=False, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         pts = np.asarray(self.points, dtype=float)
@@ -130,10 +131,11 @@ class Polygon:
         if abs(_signed_area(pts)) < 1e-9:
             raise ValueError("polygon.points: the polygon has no area")
         object.__setattr__(self, "vertices", pts)
+        object.__setattr__(self, "_edges", (pts, np.roll(pts, -1, axis=0)))
 
     @property
     def edges(self) -> tuple[Array, Array]:
-        return self.vertices, np.roll(self.vertices, -1, axis=0)
+        return self._edges
 
     def segment_clearance(self, a: Array, b: Array) -> Array:
         ea, eb = self.edges  # [E, 2]

@@ -100,9 +100,16 @@ class SensorSuite:
         forward = float(pose[2]) + math.pi
         ranges: dict[str, float] = {}
         hits: dict[str, int] = {}
-        for sensor in self.range_sensors:
-            dirs = unit_vectors(forward + sensor.ray_angles())
-            dist, what = world.ray_cast(origin, dirs, sensor.max_range)
+        # One ray cast for every ray of every sensor (capped per sensor afterwards).
+        angles = [forward + s.ray_angles() for s in self.range_sensors]
+        counts = [a.size for a in angles]
+        reach = max((s.max_range for s in self.range_sensors), default=0.0)
+        all_dist, all_what = world.ray_cast(origin, unit_vectors(np.concatenate(angles or [[]])), reach)
+        offsets = np.cumsum([0, *counts])
+        for k, sensor in enumerate(self.range_sensors):
+            dist = all_dist[offsets[k] : offsets[k + 1]]
+            what = np.where(dist <= sensor.max_range, all_what[offsets[k] : offsets[k + 1]], -2)
+            dist = np.minimum(dist, sensor.max_range)
             i = int(np.argmin(dist))
             value = float(dist[i])
             if sensor.noise_std > 0:
