@@ -119,12 +119,10 @@ def test_stepping_simulator_matches_the_batched_rollout_in_free_space() -> None:
 
 
 def test_start_inside_an_obstacle_is_rejected() -> None:
+    circle = obstacle_from_dict({"type": "circle", "x": 0.3, "y": 0, "radius": 0.2})
+    sim = Simulator(World(obstacles=(circle,)))
     with pytest.raises(ValueError, match="pose"):
-        Simulator(
-            World(
-                obstacles=(obstacle_from_dict({"type": "circle", "x": 0.3, "y": 0, "radius": 0.2}),)
-            )
-        )
+        sim.reset((0.0, 0.0, 0.0))
 
 
 def test_env_is_reproducible_and_rewards_progress() -> None:
