@@ -83,11 +83,12 @@ def simulate(
 
 
 def _register() -> None:
-    from app.cli_missions import mission
+    from app.cli_missions import mission, paper
     from app.cli_primitives import learn, library_cli
 
     cli.command()(learn)
     cli.command()(mission)
+    cli.command()(paper)
     cli.add_typer(library_cli, name="library")
 
 

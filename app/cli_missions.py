@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Annotated
 
@@ -15,7 +16,7 @@ from app.executor.runner import MissionError, MissionRunner
 from app.missions.spec import MissionFileError, MissionSpec, load_mission
 from app.plots import plot_trajectories
 from primitives.library import Library, LibraryError, bundled_library_path
-from sim.obstacles import Circle
+from sim.obstacles import Circle, Obstacle
 from sim.world import World
 
 
@@ -26,7 +27,9 @@ def load_library(path: Path | None) -> Library:
         raise fail(str(exc)) from exc
 
 
-def plot_mission(spec: MissionSpec, result: MissionResult, out: Path, sensed: list[Circle]) -> Path:
+def plot_mission(
+    spec: MissionSpec, result: MissionResult, out: Path, sensed: Sequence[Obstacle]
+) -> Path:
     states = np.array([row[1:] for row in result.trajectory])
     world = World(spec.bounds.bounds(), tuple(spec.world_obstacles()))
     replans = [(e["t"], e["trigger"]) for e in result.events if e["kind"] == "replan"]
@@ -45,7 +48,7 @@ def plot_mission(spec: MissionSpec, result: MissionResult, out: Path, sensed: li
         world=world,
         outlines=6,
         marks=marks,
-        points=[(c.x, c.y) for c in sensed],
+        points=[(c.x, c.y) for c in sensed if isinstance(c, Circle)],
     )
 
 
@@ -98,8 +101,39 @@ def mission(
     result = runner.run()
     print_summary(result)
     path = plot_mission(
-        spec, result, out or Path("out") / f"{spec.name}.png", list(runner.ctx.knowledge.sensed)
-    )  # type: ignore[arg-type]
+        spec, result, out or Path("out") / f"{spec.name}.png", runner.ctx.knowledge.sensed
+    )
     console.print(f"plot: {path}")
     if result.status != "succeeded":
         raise typer.Exit(code=1)
+
+
+def paper(
+    name: Annotated[str, typer.Argument(help="an experiment, or 'list'")] = "list",
+    out: Annotated[Path, typer.Option(help="folder for the plots")] = Path("out/paper"),
+    library: Annotated[
+        Path | None, typer.Option(help="primitive library (default: bundled)")
+    ] = None,
+) -> None:
+    """List, or run, the paper's experiments that the system reproduces."""
+    from app.paper import EXPERIMENTS
+
+    if name.lower() == "list":
+        table = Table(title="reproducible experiments")
+        for col in ("name", "figure", "what"):
+            table.add_column(col)
+        for e in EXPERIMENTS.values():
+            table.add_row(e.name, e.figure, e.title)
+        console.print(table)
+        return
+    if name not in EXPERIMENTS:
+        raise fail(f"unknown experiment {name!r}; run `screwsnake paper list`")
+    experiment = EXPERIMENTS[name]
+    rows, path = experiment.run(load_library(library), out)
+    table = Table(title=f"{experiment.figure}: {experiment.title}")
+    for col in ("", "the paper", "screwsnake"):
+        table.add_column(col)
+    for row in rows:
+        table.add_row(*row)
+    console.print(table)
+    console.print(f"plot: {path}")

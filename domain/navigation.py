@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 from pyperplan.heuristics.heuristic_base import Heuristic
 from pyperplan.task import Operator
 
@@ -34,7 +35,6 @@ from domain.pyperplan_adapter import (
 from domain.roadmap import Roadmap
 from primitives.library import Library
 from sim.obstacles import Obstacle
-from sim.robot import Array
 
 HEADINGS = [0.0, 45.0, 90.0, 135.0, 180.0, -135.0, -90.0, -45.0]
 START = "s0"
@@ -307,7 +307,7 @@ class NavigationPlanner:
                 adjacency.setdefault(n, []).append(self.start_node)
         return adjacency
 
-    def _heading_mask(self) -> Array:
+    def _heading_mask(self) -> NDArray[np.bool_]:
         ok = set(self.headings)
         return np.array([h in ok for h in self.roadmap.headings], dtype=bool)
 

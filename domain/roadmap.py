@@ -201,7 +201,7 @@ class Roadmap:
         out: NDArray[np.intp] = np.flatnonzero(obstacle.segment_clearance(a, b) < self.inflation)
         return out
 
-    def adjacency(self, active: Array) -> dict[int, list[int]]:
+    def adjacency(self, active: Mask) -> dict[int, list[int]]:
         out: dict[int, list[int]] = {}
         for e in np.flatnonzero(active):
             out.setdefault(self.starts[e], []).append(self.ends[e])

@@ -86,6 +86,7 @@ class Steering:
             )
         first, second = _bracket(entries, [self._velocity[e.id] for e in entries], direction)
         basis = np.array([self._velocity[first.id], self._velocity[second.id]]).T
+        sources: tuple[str, ...]
         if abs(np.linalg.det(basis)) < 1e-12 or first is second:
             scale = speed / float(np.linalg.norm(self._velocity[first.id]))
             theta, sources, method = np.array(first.theta) * scale, (first.id,), "library"

@@ -104,7 +104,9 @@ class SensorSuite:
         angles = [forward + s.ray_angles() for s in self.range_sensors]
         counts = [a.size for a in angles]
         reach = max((s.max_range for s in self.range_sensors), default=0.0)
-        all_dist, all_what = world.ray_cast(origin, unit_vectors(np.concatenate(angles or [[]])), reach)
+        all_dist, all_what = world.ray_cast(
+            origin, unit_vectors(np.concatenate(angles) if angles else np.zeros(0)), reach
+        )
         offsets = np.cumsum([0, *counts])
         for k, sensor in enumerate(self.range_sensors):
             dist = all_dist[offsets[k] : offsets[k + 1]]

@@ -23,7 +23,7 @@ from domain.triggers import Initial, NoProgress, ObstacleSensed, ShapeChanged
 from primitives.interpolation import interpolate_entries
 from primitives.shapes import SHAPES, classify_shape
 from sim.controls import FixedShape, PeriodicGait
-from sim.obstacles import point_segment_distance
+from sim.obstacles import Circle, point_segment_distance
 
 CRUISE_SPEED = 0.06  # m/s (screw speeds stay within ±0.8 rad/s)
 WAYPOINT_REACH = 0.2  # metres: close enough to move on to the next waypoint
@@ -34,7 +34,7 @@ PATH_CONFLICT = 1.2  # metres: a new obstacle this close to the path ahead break
 REACTIVE_CLEARANCE = 0.6  # metres to keep sidestepping after the goal direction is clear
 
 
-class MissionBehaviour(py_trees.behaviour.Behaviour):  # type: ignore[misc]
+class MissionBehaviour(py_trees.behaviour.Behaviour):
     """A behaviour reading the mission context from its blackboard namespace."""
 
     def __init__(self, name: str, namespace: str) -> None:
@@ -142,9 +142,7 @@ class ObstacleGuard(MissionBehaviour):
         return np.array(points)
 
 
-def _marker(ctx: MissionContext) -> object:
-    from sim.obstacles import Circle
-
+def _marker(ctx: MissionContext) -> Circle:
     x, y, _ = ctx.pose
     return Circle(x, y, 0.01, name="reactive", known=False)
 
@@ -271,7 +269,7 @@ class FollowPlan(MissionBehaviour):
             return Status.RUNNING
         side = to_goal + math.radians(step.relative_angle)
         if blocked_towards(ctx, side):
-            ctx.trigger = ObstacleSensed(_marker(ctx))  # type: ignore[arg-type]
+            ctx.trigger = ObstacleSensed(_marker(ctx))
             return Status.FAILURE
         if blocked_towards(ctx, to_goal):
             ctx.reactive_cleared = 0.0
