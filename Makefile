@@ -15,7 +15,7 @@ $(VENV)/.installed: pyproject.toml | $(BIN)/python
 	touch $@
 
 run: $(VENV)/.installed
-	$(BIN)/screwsnake simulate --case exp4 --out out/exp4.png
+	$(BIN)/screwsnake serve --host $${HOST:-127.0.0.1} --port $${PORT:-8000}
 
 lint: $(VENV)/.installed
 	$(BIN)/ruff check .

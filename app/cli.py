@@ -82,6 +82,18 @@ def simulate(
     console.print(f"plot: {path}")
 
 
+@cli.command()
+def serve(
+    host: Annotated[str, typer.Option(help="interface to listen on")] = "127.0.0.1",
+    port: Annotated[int, typer.Option(help="TCP port")] = 8000,
+) -> None:
+    """Serve the API, the websocket and the viewer (SQLite file and bundled library by default)."""
+    import uvicorn
+
+    console.print(f"screwsnake serving on http://{host}:{port}/  (API docs at /docs)")
+    uvicorn.run("app.main:app", host=host, port=port, log_level="info")
+
+
 def _register() -> None:
     from app.cli_missions import mission, paper
     from app.cli_primitives import learn, library_cli

@@ -1,0 +1,1 @@
+"""The HTTP and websocket API (DESIGN §10), one router per resource."""

@@ -1,0 +1,52 @@
+"""Dependencies: the app's services, settings, and the optional API key for writes."""
+
+from __future__ import annotations
+
+import secrets
+from dataclasses import dataclass
+from typing import Annotated
+
+from fastapi import Depends, HTTPException, Request
+from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
+
+from app.service.hub import Hub
+from app.service.jobs import Jobs
+from app.service.metrics import Metrics
+from app.service.supervisor import Supervisor
+from app.settings import Settings
+from app.store.repo import Store
+from primitives.library import Library
+
+
+@dataclass
+class Services:
+    settings: Settings
+    store: Store
+    library: Library
+    hub: Hub
+    supervisor: Supervisor
+    jobs: Jobs
+    metrics: Metrics
+    library_version: str
+
+
+def services(request: Request) -> Services:
+    found: Services = request.app.state.services
+    return found
+
+
+Svc = Annotated[Services, Depends(services)]
+bearer = HTTPBearer(auto_error=False)
+
+
+def writer(
+    svc: Svc, credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(bearer)]
+) -> None:
+    """Writes need ``Authorization: Bearer <key>`` when an API key is set."""
+    key = svc.settings.api_key
+    if key is None:
+        return
+    if credentials is None or not secrets.compare_digest(credentials.credentials, key):
+        raise HTTPException(
+            401, "a valid API key is required for writes", headers={"WWW-Authenticate": "Bearer"}
+        )

@@ -1,0 +1,41 @@
+"""Liveness, readiness and Prometheus metrics."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fastapi import APIRouter
+from fastapi.responses import JSONResponse, Response
+from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
+from sqlalchemy import text
+
+from app.api.deps import Svc
+
+router = APIRouter(tags=["health"])
+
+
+@router.get("/livez")
+def livez() -> dict[str, str]:
+    return {"status": "ok"}
+
+
+@router.get("/readyz", response_model=None)
+def readyz(svc: Svc) -> Any:
+    try:
+        with svc.store.engine.connect() as conn:
+            conn.execute(text("SELECT 1"))
+    except Exception as exc:  # not ready: say why
+        return JSONResponse({"status": "unavailable", "database": str(exc)}, status_code=503)
+    return {
+        "status": "ok",
+        "database": "ok",
+        "library": svc.library_version,
+        "primitives": len(svc.library),
+    }
+
+
+@router.get("/metrics")
+def metrics(svc: Svc) -> Response:
+    m = svc.metrics
+    m.ws_clients.set(svc.hub.clients)
+    return Response(generate_latest(m.registry), media_type=CONTENT_TYPE_LATEST)

@@ -1,0 +1,34 @@
+"""The browser viewer (a static page, no build step) and the example missions it can post."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+from fastapi import APIRouter, HTTPException
+from fastapi.responses import FileResponse
+
+from app.paper import examples_dir
+
+router = APIRouter(tags=["viewer"])
+STATIC = Path(__file__).resolve().parents[1] / "static"
+
+
+@router.get("/", include_in_schema=False)
+def index() -> FileResponse:
+    return FileResponse(STATIC / "index.html", media_type="text/html")
+
+
+@router.get("/examples")
+def list_examples() -> dict[str, Any]:
+    return {"items": sorted(p.stem for p in examples_dir().glob("*.json"))}
+
+
+@router.get("/examples/{name}")
+def get_example(name: str) -> dict[str, Any]:
+    names = {p.stem: p for p in examples_dir().glob("*.json")}
+    if name not in names:
+        raise HTTPException(404, f"example {name!r} not found")
+    data: dict[str, Any] = json.loads(names[name].read_text())
+    return data

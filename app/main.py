@@ -1,0 +1,62 @@
+"""The ASGI app (``app.main:app``): routers, problem+json errors, and the lifespan that owns
+the store, the library, the websocket hub, the mission supervisor and the learning jobs."""
+
+from __future__ import annotations
+
+from collections.abc import AsyncIterator
+from contextlib import asynccontextmanager
+
+from fastapi import FastAPI
+
+from app.api import errors, health, jobs, missions, primitives, simulate, viewer, ws
+from app.api.deps import Services
+from app.service.hub import Hub
+from app.service.jobs import Jobs
+from app.service.metrics import Metrics
+from app.service.supervisor import Supervisor
+from app.settings import Settings
+from app.store.db import make_engine, migrate
+from app.store.repo import Store
+from primitives.build import code_version
+from primitives.library import Library, bundled_library_path
+
+
+def create_app(settings: Settings | None = None) -> FastAPI:
+    config = settings or Settings.from_env()
+
+    @asynccontextmanager
+    async def lifespan(app: FastAPI) -> AsyncIterator[None]:
+        engine = make_engine(config.database_url)
+        migrate(engine)
+        store = Store(engine)
+        path = config.library or bundled_library_path()
+        library = Library.load(path)
+        version = store.record_library(library.to_json(), code_version(), len(library), str(path))
+        metrics = Metrics()
+        hub = Hub(config.ws_queue)
+        supervisor = Supervisor(store, library, hub, config, metrics)
+        learning = Jobs(store, metrics)
+        app.state.services = Services(
+            config, store, library, hub, supervisor, learning, metrics, version[:12]
+        )
+        await supervisor.start()
+        try:
+            yield
+        finally:
+            await supervisor.stop()
+            learning.stop()
+            engine.dispose()
+
+    app = FastAPI(
+        title="screwsnake",
+        summary="Goal-directed locomotion of a screw-drive snake robot: missions, plans, primitives.",
+        version=code_version(),
+        lifespan=lifespan,
+    )
+    errors.install(app)
+    for module in (missions, primitives, simulate, jobs, health, ws, viewer):
+        app.include_router(module.router)
+    return app
+
+
+app = create_app()

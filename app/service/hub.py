@@ -1,0 +1,84 @@
+"""The websocket hub: one bounded, latest-wins channel per client.
+
+State frames replace each other (a slow client gets the newest state, never a backlog);
+event, plan and end frames queue in order. A client whose queue of such frames overflows is
+dropped: it never slows the simulation or the other clients.
+"""
+
+from __future__ import annotations
+
+import asyncio
+from collections import deque
+from typing import Any
+
+Frame = dict[str, Any]
+
+
+class Channel:
+    def __init__(self, limit: int) -> None:
+        self.limit = limit
+        self.state: Frame | None = None
+        self.frames: deque[Frame] = deque()
+        self.wake = asyncio.Event()
+        self.dropped = 0  # state frames superseded before delivery
+        self.overflowed = False
+        self.delivered = 0
+
+    def offer(self, frame: Frame) -> None:
+        if self.overflowed:
+            return
+        if frame.get("type") == "state":
+            if self.state is not None:
+                self.dropped += 1
+            self.state = frame
+        elif len(self.frames) >= self.limit:
+            self.overflowed = True  # too slow: the connection gets closed
+        else:
+            self.frames.append(frame)
+        self.wake.set()
+
+    async def next(self) -> Frame | None:
+        """The next frame to send (ordered frames first, then the latest state); None if dropped."""
+        while True:
+            if self.overflowed:
+                return None
+            if self.frames:
+                self.delivered += 1
+                return self.frames.popleft()
+            if self.state is not None:
+                frame, self.state = self.state, None
+                self.delivered += 1
+                return frame
+            self.wake.clear()
+            await self.wake.wait()
+
+
+class Hub:
+    def __init__(self, limit: int = 256) -> None:
+        self.limit = limit
+        self.channels: dict[str, set[Channel]] = {}
+        self.frames_dropped = 0
+        self.last_tree: dict[str, dict[str, Any]] = {}  # mission -> its latest tree snapshot
+
+    def subscribe(self, mission_id: str) -> Channel:
+        channel = Channel(self.limit)
+        self.channels.setdefault(mission_id, set()).add(channel)
+        return channel
+
+    def unsubscribe(self, mission_id: str, channel: Channel) -> None:
+        self.frames_dropped += channel.dropped
+        group = self.channels.get(mission_id)
+        if group is not None:
+            group.discard(channel)
+            if not group:
+                del self.channels[mission_id]
+
+    def publish(self, mission_id: str, frame: Frame) -> None:
+        if frame.get("type") == "state" and "tree" in frame:
+            self.last_tree[mission_id] = frame["tree"]
+        for channel in list(self.channels.get(mission_id, ())):
+            channel.offer(frame)
+
+    @property
+    def clients(self) -> int:
+        return sum(len(c) for c in self.channels.values())

@@ -1,0 +1,107 @@
+"""Learning jobs: one primitive learned in the background, with progress and cancellation."""
+
+from __future__ import annotations
+
+import threading
+import time
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
+
+from app.service.metrics import Metrics
+from app.store.repo import Store
+from primitives.learners import CancelledError, StopRule, UpdateRecord, make_learner
+from primitives.params import ParameterSpace
+from primitives.shapes import shape_named
+from primitives.task import LearningTask
+
+PROGRESS_SECONDS = 0.2
+
+
+class Jobs:
+    def __init__(self, store: Store, metrics: Metrics, workers: int = 1) -> None:
+        self.store, self.metrics = store, metrics
+        self.pool = ThreadPoolExecutor(workers, thread_name_prefix="learn")
+        self.cancels: dict[str, threading.Event] = {}
+
+    def start(self, request: dict[str, Any]) -> str:
+        row = self.store.create_job("learn", request)
+        self.cancels[row.id] = threading.Event()
+        self.pool.submit(self._run, row.id, request)
+        return row.id
+
+    def cancel(self, job_id: str) -> bool:
+        row = self.store.get_job(job_id)
+        if row is None or row.status in ("succeeded", "failed", "cancelled"):
+            return False
+        self.cancels.setdefault(job_id, threading.Event()).set()
+        if row.status == "queued":
+            self.store.update_job(job_id, status="cancelled", reason="cancelled before it started")
+        return True
+
+    def stop(self) -> None:
+        for event in self.cancels.values():
+            event.set()
+        self.pool.shutdown(wait=True)
+
+    def _run(self, job_id: str, request: dict[str, Any]) -> None:
+        cancel = self.cancels[job_id]
+        if cancel.is_set():
+            return
+        self.store.update_job(job_id, status="running")
+        shape = request["shape"]
+        if shape == "free":
+            space = ParameterSpace("U2")
+        else:
+            s = shape_named(shape)
+            space = ParameterSpace("U3") if s.periodic else ParameterSpace("U1", s.joints)
+        goal = (float(request["goal"][0]), float(request["goal"][1]))
+        task = LearningTask(goal, space)
+        stop = StopRule(request["threshold"], request["max_updates"])
+        last = [0.0]
+
+        def progress(rec: UpdateRecord) -> None:
+            if cancel.is_set():
+                raise CancelledError()
+            if time.perf_counter() - last[0] >= PROGRESS_SECONDS:
+                last[0] = time.perf_counter()
+                self.store.update_job(
+                    job_id,
+                    progress={"update": rec.update, "cost": rec.cost, "rollouts": rec.rollouts},
+                )
+
+        try:
+            result = make_learner(request["learner"]).learn(
+                task, request["seed"], stop, progress=progress
+            )
+        except CancelledError:
+            self.store.update_job(job_id, status="cancelled", reason="cancelled by request")
+            self.metrics.jobs.labels("cancelled").inc()
+            return
+        except Exception as exc:  # record it: a job always ends with a reason
+            self.store.update_job(job_id, status="failed", reason=f"{type(exc).__name__}: {exc}")
+            self.metrics.jobs.labels("failed").inc()
+            return
+        theta, joints, phases = space.split(result.params)
+        summary = {
+            "theta": theta,
+            "joints": joints,
+            "phases": phases,
+            "cost": result.cost,
+            "converged": result.converged,
+            "updates": result.updates,
+            "rollouts": result.rollouts,
+            "curve": result.curve,
+            "learner": result.learner,
+            "seed": result.seed,
+        }
+        status = "succeeded" if result.converged else "failed"
+        reason = (
+            ""
+            if result.converged
+            else f"did not reach {stop.threshold} m in {stop.max_updates} updates"
+        )
+        progress_now = {"update": result.updates, "cost": result.cost, "rollouts": result.rollouts}
+        self.store.update_job(
+            job_id, status=status, reason=reason, result=summary, progress=progress_now
+        )
+        self.metrics.jobs.labels(status).inc()

@@ -1,0 +1,280 @@
+"""The repository: missions, their append-only transitions, plans, replans, trajectories, jobs.
+
+Every call is its own short transaction. Writes are serialised by a lock (SQLite has one writer;
+for PostgreSQL the lock only costs a little concurrency).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import threading
+import uuid
+from collections.abc import Sequence
+from datetime import UTC, datetime
+from typing import Any
+
+from sqlalchemy import Engine, func, select, update
+from sqlalchemy.exc import IntegrityError
+from sqlalchemy.orm import sessionmaker
+
+from app.store.models import (
+    JobRow,
+    LibraryVersionRow,
+    MissionRow,
+    PlanRow,
+    ReplanRow,
+    TrajectoryRow,
+    TransitionRow,
+)
+
+TERMINAL = ("succeeded", "failed", "cancelled")
+ACTIVE = ("planning", "executing", "replanning", "cancelling")
+
+
+def now() -> datetime:
+    return datetime.now(UTC)
+
+
+class Store:
+    def __init__(self, engine: Engine) -> None:
+        self.engine = engine
+        self.sessions = sessionmaker(engine, expire_on_commit=False)
+        self.lock = threading.RLock()
+
+    # -- missions ---------------------------------------------------------------------------
+    def create_mission(
+        self, name: str, request: dict[str, Any], idempotency_key: str | None
+    ) -> tuple[MissionRow, bool]:
+        """Insert a queued mission (and its first transition); ``(row, False)`` for a retried key."""
+        with self.lock, self.sessions() as s:
+            if idempotency_key:
+                found = s.scalar(
+                    select(MissionRow).where(MissionRow.idempotency_key == idempotency_key)
+                )
+                if found is not None:
+                    return found, False
+            t = now()
+            row = MissionRow(
+                id=str(uuid.uuid4()),
+                name=name,
+                status="queued",
+                reason="",
+                created_at=t,
+                updated_at=t,
+                idempotency_key=idempotency_key,
+                request=request,
+                state={},
+            )
+            s.add(row)
+            s.add(TransitionRow(mission_id=row.id, status="queued", at=t, reason=""))
+            try:
+                s.commit()
+            except IntegrityError:  # a concurrent retry with the same key won the race
+                s.rollback()
+                found = s.scalar(
+                    select(MissionRow).where(MissionRow.idempotency_key == idempotency_key)
+                )
+                assert found is not None
+                return found, False
+            return row, True
+
+    def get_mission(self, mission_id: str) -> MissionRow | None:
+        with self.sessions() as s:
+            return s.get(MissionRow, mission_id)
+
+    def latest_mission(self) -> MissionRow | None:
+        with self.sessions() as s:
+            return s.scalar(select(MissionRow).order_by(MissionRow.created_at.desc()).limit(1))
+
+    def list_missions(
+        self, status: str | None, limit: int, offset: int
+    ) -> tuple[list[MissionRow], int]:
+        with self.sessions() as s:
+            q = select(MissionRow)
+            count = select(func.count()).select_from(MissionRow)
+            if status:
+                q = q.where(MissionRow.status == status)
+                count = count.where(MissionRow.status == status)
+            rows = s.scalars(
+                q.order_by(MissionRow.created_at.desc(), MissionRow.id).limit(limit).offset(offset)
+            )
+            return list(rows), int(s.scalar(count) or 0)
+
+    def transitions(self, mission_id: str) -> list[TransitionRow]:
+        with self.sessions() as s:
+            q = (
+                select(TransitionRow)
+                .where(TransitionRow.mission_id == mission_id)
+                .order_by(TransitionRow.id)
+            )
+            return list(s.scalars(q))
+
+    def transition(
+        self, mission_id: str, status: str, reason: str = "", state: dict[str, Any] | None = None
+    ) -> bool:
+        """Append a transition and set the status, unless the mission already ended."""
+        with self.lock, self.sessions() as s:
+            row = s.get(MissionRow, mission_id)
+            if row is None or row.status in TERMINAL:
+                return False
+            t = now()
+            row.status, row.reason, row.updated_at = status, reason, t
+            if state is not None:
+                row.state = state
+            s.add(TransitionRow(mission_id=mission_id, status=status, at=t, reason=reason))
+            s.commit()
+            return True
+
+    def save_state(self, mission_id: str, state: dict[str, Any]) -> None:
+        with self.lock, self.sessions() as s:
+            s.execute(
+                update(MissionRow)
+                .where(MissionRow.id == mission_id)
+                .values(state=state, updated_at=now())
+            )
+            s.commit()
+
+    def interrupt_unfinished(self) -> list[str]:
+        """At start-up: missions left active by a crash become failed/interrupted."""
+        with self.lock, self.sessions() as s:
+            rows = list(s.scalars(select(MissionRow).where(MissionRow.status.in_(ACTIVE))))
+            t = now()
+            for row in rows:
+                row.status, row.reason, row.updated_at = "failed", "interrupted", t
+                s.add(TransitionRow(mission_id=row.id, status="failed", at=t, reason="interrupted"))
+            s.commit()
+            return [r.id for r in rows]
+
+    def queued(self) -> list[str]:
+        with self.sessions() as s:
+            q = (
+                select(MissionRow.id)
+                .where(MissionRow.status == "queued")
+                .order_by(MissionRow.created_at)
+            )
+            return list(s.scalars(q))
+
+    # -- plans, replans, trajectories ----------------------------------------------------------
+    def add_plan(
+        self,
+        mission_id: str,
+        version: int,
+        domain: str,
+        domain_pddl: str,
+        problem_pddl: str,
+        plan: Sequence[str],
+        actions: Sequence[dict[str, Any]],
+    ) -> None:
+        with self.lock, self.sessions() as s:
+            s.add(
+                PlanRow(
+                    mission_id=mission_id,
+                    version=version,
+                    domain=domain,
+                    domain_pddl=domain_pddl,
+                    problem_pddl=problem_pddl,
+                    plan=list(plan),
+                    actions=list(actions),
+                )
+            )
+            s.commit()
+
+    def plans(self, mission_id: str) -> list[PlanRow]:
+        with self.sessions() as s:
+            return list(
+                s.scalars(
+                    select(PlanRow)
+                    .where(PlanRow.mission_id == mission_id)
+                    .order_by(PlanRow.version)
+                )
+            )
+
+    def add_replan(self, mission_id: str, record: dict[str, Any]) -> None:
+        with self.lock, self.sessions() as s:
+            s.add(
+                ReplanRow(
+                    mission_id=mission_id,
+                    trigger=record["trigger"],
+                    at=record["at"],
+                    latency_ms=record["latency_ms"],
+                    detail=record["detail"],
+                    old=record["old"],
+                    new=record["new"],
+                    status=record["status"],
+                )
+            )
+            s.commit()
+
+    def replans(self, mission_id: str) -> list[ReplanRow]:
+        with self.sessions() as s:
+            return list(
+                s.scalars(
+                    select(ReplanRow)
+                    .where(ReplanRow.mission_id == mission_id)
+                    .order_by(ReplanRow.id)
+                )
+            )
+
+    def save_trajectory(self, mission_id: str, points: list[list[float]]) -> None:
+        with self.lock, self.sessions() as s:
+            s.merge(TrajectoryRow(mission_id=mission_id, points=points))
+            s.commit()
+
+    def trajectory(self, mission_id: str) -> list[list[float]] | None:
+        with self.sessions() as s:
+            row = s.get(TrajectoryRow, mission_id)
+            return None if row is None else list(row.points)
+
+    # -- library versions and jobs ---------------------------------------------------------------
+    def record_library(self, text: str, code_version: str, entries: int, source: str) -> str:
+        digest = hashlib.sha256(text.encode()).hexdigest()
+        with self.lock, self.sessions() as s:
+            if (
+                s.scalar(select(LibraryVersionRow).where(LibraryVersionRow.sha256 == digest))
+                is None
+            ):
+                s.add(
+                    LibraryVersionRow(
+                        sha256=digest,
+                        code_version=code_version,
+                        entries=entries,
+                        source=source,
+                        loaded_at=now(),
+                    )
+                )
+                s.commit()
+        return digest
+
+    def create_job(self, kind: str, request: dict[str, Any]) -> JobRow:
+        with self.lock, self.sessions() as s:
+            row = JobRow(
+                id=str(uuid.uuid4()),
+                kind=kind,
+                status="queued",
+                reason="",
+                created_at=now(),
+                request=request,
+                progress={},
+                result=None,
+            )
+            s.add(row)
+            s.commit()
+            return row
+
+    def update_job(self, job_id: str, **values: Any) -> None:
+        with self.lock, self.sessions() as s:
+            s.execute(update(JobRow).where(JobRow.id == job_id).values(**values))
+            s.commit()
+
+    def get_job(self, job_id: str) -> JobRow | None:
+        with self.sessions() as s:
+            return s.get(JobRow, job_id)
+
+    def interrupt_jobs(self) -> None:
+        with self.lock, self.sessions() as s:
+            s.execute(
+                update(JobRow)
+                .where(JobRow.status.in_(("queued", "running")))
+                .values(status="failed", reason="interrupted")
+            )
+            s.commit()
