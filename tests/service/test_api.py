@@ -310,3 +310,9 @@ def test_viewer_page_and_examples(client: TestClient) -> None:
     assert "fig9b-obstacles" in names
     example = client.get("/examples/fig9b-obstacles").json()
     assert client.post("/missions", json=example).status_code == 201
+
+
+def test_timestamps_are_timezone_aware_utc(client: TestClient) -> None:
+    client.post("/missions", json=GOAL)
+    m = client.get("/missions").json()["items"][0]
+    assert m["created_at"].endswith(("Z", "+00:00")) and m["transitions"][0]["at"].endswith(("Z", "+00:00"))
