@@ -54,6 +54,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         lifespan=lifespan,
     )
     errors.install(app)
+    errors.document(app)
     for module in (missions, primitives, simulate, jobs, health, ws, viewer):
         app.include_router(module.router)
     return app

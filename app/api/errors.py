@@ -62,3 +62,60 @@ def install(app: FastAPI) -> None:
     async def _crash(_: Request, exc: Exception) -> JSONResponse:
         log.exception("unhandled error")
         return problem(500, "Server error", type(exc).__name__)
+
+
+PROBLEM_SCHEMA: dict[str, Any] = {
+    "title": "Problem",
+    "type": "object",
+    "properties": {
+        "type": {"type": "string"},
+        "title": {"type": "string"},
+        "status": {"type": "integer"},
+        "detail": {"type": "string"},
+        "field": {"type": "string"},
+        "errors": {"type": "array", "items": {"type": "object"}},
+    },
+    "required": ["type", "title", "status"],
+}
+ERROR_CODES = {
+    "401": "API key missing or wrong",
+    "404": "Not found",
+    "409": "Conflict",
+    "422": "Invalid request",
+}
+
+
+def document(app: FastAPI) -> None:
+    """Say in the OpenAPI schema what errors really look like: problem+json, 401/404/409/422."""
+    from fastapi.openapi.utils import get_openapi
+
+    def openapi() -> dict[str, Any]:
+        if app.openapi_schema:
+            return app.openapi_schema
+        schema = get_openapi(
+            title=app.title, version=app.version, summary=app.summary, routes=app.routes
+        )
+        schema.setdefault("components", {}).setdefault("schemas", {})["Problem"] = PROBLEM_SCHEMA
+        ref = {"$ref": "#/components/schemas/Problem"}
+        for path, item in schema.get("paths", {}).items():
+            for method, op in item.items():
+                responses = op.setdefault("responses", {})
+                codes = ["422"]
+                if "{" in path or path in ("/plan",):
+                    codes.append("404")
+                if method in ("post", "put", "delete"):
+                    codes += ["401", "409"]
+                for code in codes:
+                    responses[code] = {
+                        "description": ERROR_CODES[code],
+                        "content": {PROBLEM: {"schema": ref}},
+                    }
+                if path == "/readyz":
+                    responses["503"] = {
+                        "description": "Not ready",
+                        "content": {"application/json": {"schema": {"type": "object"}}},
+                    }
+        app.openapi_schema = schema
+        return schema
+
+    app.openapi = openapi  # type: ignore[method-assign]

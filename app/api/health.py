@@ -34,7 +34,16 @@ def readyz(svc: Svc) -> Any:
     }
 
 
-@router.get("/metrics")
+@router.get(
+    "/metrics",
+    response_class=Response,
+    responses={
+        200: {
+            "description": "Prometheus text format",
+            "content": {CONTENT_TYPE_LATEST: {"schema": {"type": "string"}}},
+        }
+    },
+)
 def metrics(svc: Svc) -> Response:
     m = svc.metrics
     m.ws_clients.set(svc.hub.clients)

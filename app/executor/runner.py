@@ -12,7 +12,7 @@ import math
 import threading
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Protocol
 
 import numpy as np
 import py_trees
@@ -43,6 +43,12 @@ _ids = itertools.count()
 TickHook = Callable[[MissionContext, dict[str, Any]], None]
 
 
+class CancelFlag(Protocol):
+    """A threading or multiprocessing event: only ``is_set`` is needed."""
+
+    def is_set(self) -> bool: ...
+
+
 class MissionError(ValueError):
     """A mission that cannot start (e.g. its start pose overlaps an obstacle)."""
 
@@ -55,7 +61,7 @@ class MissionRunner:
         steering: Steering | None = None,
         mission_id: str | None = None,
         on_tick: TickHook | None = None,
-        cancel: threading.Event | None = None,
+        cancel: CancelFlag | None = None,
     ) -> None:
         self.spec = spec
         self.on_tick = on_tick

@@ -1,71 +1,34 @@
 """The supervisor: runs queued missions concurrently (bounded), off the event loop.
 
-Each running mission owns a worker thread that steps its ``MissionRunner`` one control interval
-at a time, paces it (real time × speed, or as fast as possible), writes every transition, plan
-and replan to the store *before* broadcasting it, and always ends in a terminal state.
+Each running mission is a worker process (``app.service.worker``) that steps its
+``MissionRunner`` and paces it (real time × speed, or as fast as possible). A thread here turns
+the worker's messages into store writes and then websocket frames, in that order: every
+transition, plan and replan is written before it is broadcast. A mission always ends in a
+terminal state, also when its worker process dies.
 """
 
 from __future__ import annotations
 
 import asyncio
 import logging
+import multiprocessing
+import queue as queue_module
 import threading
-import time
 from concurrent.futures import ThreadPoolExecutor
+from multiprocessing.synchronize import Event as ProcessEvent
 from typing import Any
 
-from app.executor.runner import MissionError, MissionRunner
-from app.missions.spec import MissionSpec
 from app.service.hub import Frame, Hub
 from app.service.metrics import Metrics
+from app.service.worker import Message, run_mission_process
 from app.settings import Settings
 from app.store.repo import Store
-from primitives.library import Library
-from primitives.steering import Steering
-from sim.obstacles import Circle
+from primitives.library import Library, bundled_library_path
 
 log = logging.getLogger("screwsnake.supervisor")
-STATE_SAVE_SECONDS = 1.0  # wall seconds between state writes of a running mission
-
-
-def reactive_actions(plan: list[str], goal: tuple[float, float] | None) -> list[dict[str, Any]]:
-    """The reactive plan's move(angle, shape) actions, as the plan resource lists them."""
-    out = []
-    for text in plan:
-        name, shape = text.strip("()").split()
-        angle = {"po1": 0.0, "po2": 90.0, "po3": -90.0}[name]
-        out.append(
-            {
-                "name": name,
-                "args": [shape],
-                "heading": angle,
-                "shape": shape,
-                "target": None if goal is None else {"x": goal[0], "y": goal[1]},
-                "grounding": {
-                    "method": "steering",
-                    "primitives": [],
-                    "relative_to": "goal direction",
-                },
-            }
-        )
-    return out
-
-
-def mission_state(runner: MissionRunner) -> dict[str, Any]:
-    ctx = runner.ctx
-    x, y, psi = ctx.pose
-    return {
-        "goals": [g.to_dict() for g in ctx.goals],
-        "pose": {"x": x, "y": y, "psi": psi, "joints": [float(j) for j in ctx.sim.joints]},
-        "model_time": round(ctx.t, 3),
-        "collisions": ctx.sim.collisions,
-        "replans": sum(1 for r in ctx.replans if r.trigger != "initial"),
-        "shape": ctx.shape,
-        "action": ctx.current_action,
-        "sensed": [
-            [round(o.x, 3), round(o.y, 3)] for o in ctx.knowledge.sensed if isinstance(o, Circle)
-        ],
-    }
+CONTEXT = multiprocessing.get_context("forkserver")  # safe beside threads; preloads the code
+CONTEXT.set_forkserver_preload(["app.service.worker"])
+POLL_SECONDS = 0.5
 
 
 class Supervisor:
@@ -79,9 +42,9 @@ class Supervisor:
             settings,
             metrics,
         )
-        self.steering = Steering(library)
+        self.library_path = str(settings.library or bundled_library_path())
         self.pool = ThreadPoolExecutor(settings.max_running, thread_name_prefix="mission")
-        self.cancels: dict[str, threading.Event] = {}
+        self.cancels: dict[str, ProcessEvent] = {}
         self.running: set[str] = set()
         self.shutting_down = threading.Event()
         self.loop: asyncio.AbstractEventLoop | None = None
@@ -117,7 +80,7 @@ class Supervisor:
 
     def submit(self, mission_id: str) -> None:
         assert self.queue is not None
-        self.cancels.setdefault(mission_id, threading.Event())
+        self.cancels.setdefault(mission_id, CONTEXT.Event())
         self.queue.put_nowait(mission_id)
         self.metrics.queued.inc()
 
@@ -148,9 +111,9 @@ class Supervisor:
                 self._publish(
                     mission_id, {"type": "event", "kind": "status", "status": "cancelling"}
                 )
-            self.cancels.setdefault(mission_id, threading.Event()).set()
+            self.cancels.setdefault(mission_id, CONTEXT.Event()).set()
             return True
-        self.cancels.setdefault(mission_id, threading.Event()).set()
+        self.cancels.setdefault(mission_id, CONTEXT.Event()).set()
         if self.store.transition(mission_id, "cancelled", "cancelled before it started"):
             self.metrics.finished.labels("cancelled").inc()
             self._publish(
@@ -174,109 +137,84 @@ class Supervisor:
 
     def _work(self, mission_id: str) -> None:
         row = self.store.get_mission(mission_id)
-        cancel = self.cancels.setdefault(mission_id, threading.Event())
+        cancel = self.cancels.setdefault(mission_id, CONTEXT.Event())
         if row is None or row.status != "queued" or cancel.is_set():
             return
         self.running.add(mission_id)
         self.metrics.running.inc()
         try:
-            self._execute(mission_id, MissionSpec.model_validate(row.request), cancel)
+            self._execute(mission_id, row.request, cancel)
         except Exception as exc:  # never leave a mission active: fail it with the reason
             log.exception("mission %s failed unexpectedly", mission_id)
             self._end(mission_id, "failed", f"internal error: {type(exc).__name__}: {exc}", None)
         finally:
             self.running.discard(mission_id)
+            self.cancels.pop(mission_id, None)  # its semaphore goes with it
             self.metrics.running.dec()
 
-    def _execute(self, mission_id: str, spec: MissionSpec, cancel: threading.Event) -> None:
-        self._transition(mission_id, "planning")
+    def _execute(self, mission_id: str, request: dict[str, Any], cancel: ProcessEvent) -> None:
+        messages: multiprocessing.Queue[Message] = CONTEXT.Queue()
+        args = (mission_id, request, self.library_path, self.settings.ws_rate, messages, cancel)
+        process = CONTEXT.Process(
+            target=run_mission_process, args=args, name=f"mission-{mission_id[:8]}", daemon=True
+        )
+        process.start()
         try:
-            runner = MissionRunner(
-                spec,
-                self.library,
-                self.steering,
-                mission_id=mission_id.replace("-", ""),
-                cancel=cancel,
-            )
-        except MissionError as exc:
-            self._end(mission_id, "failed", str(exc), None)
-            return
-        started = time.perf_counter()
-        last_state, last_save = 0.0, 0.0
-        versions, events_sent, executing = 0, 0, False
-        period = 1.0 / self.settings.ws_rate
-        while True:
-            done = runner.step()
-            ctx = runner.ctx
-            if ctx.plan_version > versions:
-                versions = self._new_plans(mission_id, runner, versions)
-            for event in ctx.events[events_sent:]:
-                self._publish(mission_id, {"type": "event", **event})
-            events_sent = len(ctx.events)
-            if done:
-                break
-            if not executing:
-                self._transition(mission_id, "executing", state=mission_state(runner))
-                executing = True
-            wall = time.perf_counter()
-            if wall - last_state >= period:
-                self._publish(mission_id, {"type": "state", **runner.snapshot()})
-                last_state = wall
-            if wall - last_save >= STATE_SAVE_SECONDS:
-                self.store.save_state(mission_id, mission_state(runner))
-                last_save = wall
-            if spec.speed > 0:  # pace model time against the wall clock
-                ahead = ctx.t / spec.speed - (time.perf_counter() - started)
-                if ahead > 0:
-                    cancel.wait(ahead)
-        status = runner.status
-        reason = runner.reason
-        if status == "cancelled" and self.shutting_down.is_set():
-            status, reason = "failed", "interrupted (server shut down)"
-        self.store.save_trajectory(mission_id, runner.trajectory())
-        self._end(mission_id, status, reason, mission_state(runner))
+            while True:
+                try:
+                    message = messages.get(timeout=POLL_SECONDS)
+                except queue_module.Empty:
+                    if not process.is_alive():
+                        self._end(
+                            mission_id,
+                            "failed",
+                            f"worker process died (exit code {process.exitcode})",
+                            None,
+                        )
+                        return
+                    continue
+                if self._handle(mission_id, message):
+                    return
+        finally:
+            process.join(timeout=10)
+            if process.is_alive():
+                process.kill()
+            messages.close()
+            messages.join_thread()
 
-    def _new_plans(self, mission_id: str, runner: MissionRunner, seen: int) -> int:
-        ctx = runner.ctx
-        for entry, record in zip(ctx.pddl[seen:], ctx.replans[seen:], strict=False):
-            if (
-                ctx.plan is not None
-                and entry["version"] == ctx.plan_version
-                and ctx.spec.planner.domain == "navigation"
-            ):
-                actions = [a.to_dict() for a in ctx.plan.actions]
-            else:
-                left = ctx.remaining_goals()
-                goal = (ctx.goals[left[0]].x, ctx.goals[left[0]].y) if left else None
-                actions = (
-                    reactive_actions(entry["plan"], goal)
-                    if ctx.spec.planner.domain == "reactive"
-                    else []
-                )
+    def _handle(self, mission_id: str, message: Message) -> bool:
+        """Store, then broadcast, one worker message; True at the end."""
+        kind = message[0]
+        if kind == "frame":
+            self._publish(mission_id, message[1])
+        elif kind == "state":
+            self.store.save_state(mission_id, message[1])
+        elif kind == "transition":
+            self._transition(mission_id, message[1], message[2], message[3])
+        elif kind == "plan":
+            _, version, domain, domain_pddl, problem_pddl, plan, actions = message
             self.store.add_plan(
-                mission_id,
-                entry["version"],
-                ctx.spec.planner.domain,
-                entry["domain"],
-                entry["problem"],
-                entry["plan"],
-                actions,
+                mission_id, version, domain, domain_pddl, problem_pddl, plan, actions
             )
-            if record.trigger != "initial":
-                self.store.add_replan(mission_id, record.to_dict())
-                self.metrics.replan_latency.observe(record.latency_ms / 1000)
-                self._transition(mission_id, "replanning", record.trigger)
-                self._transition(mission_id, "executing")
             self._publish(
-                mission_id,
-                {
-                    "type": "plan",
-                    "version": entry["version"],
-                    "plan": entry["plan"],
-                    "actions": actions,
-                },
+                mission_id, {"type": "plan", "version": version, "plan": plan, "actions": actions}
             )
-        return ctx.plan_version
+        elif kind == "replan":
+            record = message[1]
+            self.store.add_replan(mission_id, record)
+            self.metrics.replan_latency.observe(record["latency_ms"] / 1000)
+            self._transition(mission_id, "replanning", record["trigger"])
+            self._transition(mission_id, "executing")
+            self._publish(mission_id, {"type": "event", "kind": "replan", **record})
+        elif kind == "trajectory":
+            self.store.save_trajectory(mission_id, message[1])
+        elif kind == "end":
+            _, status, reason, state = message
+            if status == "cancelled" and self.shutting_down.is_set():
+                status, reason = "failed", "interrupted (server shut down)"
+            self._end(mission_id, status, reason, state)
+            return True
+        return False
 
     def _end(self, mission_id: str, status: str, reason: str, state: dict[str, Any] | None) -> None:
         if self.store.transition(mission_id, status, reason, state):

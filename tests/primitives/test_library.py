@@ -70,15 +70,21 @@ def test_process_pool_gives_the_same_library_as_serial() -> None:
     assert a.to_json() == b.to_json()
 
 
-def test_ray_executor_gives_the_same_library() -> None:
-    pytest.importorskip("ray")
+def test_ray_builds_a_large_library_identical_to_the_local_pool() -> None:
+    ray = pytest.importorskip("ray")
+    from primitives.catalogue import grid_specs
     from primitives.executors import RayExecutor
+    from primitives.shapes import FIXED_SHAPES
 
-    specs = default_specs(("straight",))[:2]
-    assert (
-        build_library(specs, executor=RayExecutor(workers=2)).to_json()
-        == build_library(specs).to_json()
-    )
+    specs = grid_specs((*FIXED_SHAPES, "periodic"))  # 8 headings x 3 distances x 6 shapes
+    assert len(specs) == 144
+    try:
+        by_ray = build_library(specs, executor=RayExecutor(workers=2))
+    finally:
+        ray.shutdown()
+    by_pool = build_library(specs, executor=LocalPoolExecutor(2))
+    assert by_ray.to_json() == by_pool.to_json()
+    assert all(e.cost < 0.05 for e in by_ray)
 
 
 def test_round_trip(tmp_path: Path) -> None:

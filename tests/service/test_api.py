@@ -315,4 +315,6 @@ def test_viewer_page_and_examples(client: TestClient) -> None:
 def test_timestamps_are_timezone_aware_utc(client: TestClient) -> None:
     client.post("/missions", json=GOAL)
     m = client.get("/missions").json()["items"][0]
-    assert m["created_at"].endswith(("Z", "+00:00")) and m["transitions"][0]["at"].endswith(("Z", "+00:00"))
+    assert m["created_at"].endswith(("Z", "+00:00")) and m["transitions"][0]["at"].endswith(
+        ("Z", "+00:00")
+    )

@@ -22,37 +22,38 @@ def free_port() -> int:
         return int(s.getsockname()[1])
 
 
-@pytest.fixture
-def server(tmp_path: Path) -> Iterator[str]:
+def start_server(db: Path, **env_extra: str) -> tuple[subprocess.Popen[bytes], str]:
+    """uvicorn serving app.main:app on a free loopback port, once it answers /livez."""
     port = free_port()
-    env = {**os.environ, "SCREWSNAKE_DATABASE_URL": f"sqlite:///{tmp_path / 'srv.db'}"}
+    env = {**os.environ, "SCREWSNAKE_DATABASE_URL": f"sqlite:///{db}", **env_extra}
+    command = [
+        sys.executable,
+        "-m",
+        "uvicorn",
+        "app.main:app",
+        "--host",
+        "127.0.0.1",
+        "--port",
+        str(port),
+    ]
     proc = subprocess.Popen(
-        [
-            sys.executable,
-            "-m",
-            "uvicorn",
-            "app.main:app",
-            "--host",
-            "127.0.0.1",
-            "--port",
-            str(port),
-            "--log-level",
-            "warning",
-        ],
-        env=env,
-        cwd=Path(__file__).parents[2],
+        [*command, "--log-level", "warning"], env=env, cwd=Path(__file__).parents[2]
     )
     base = f"http://127.0.0.1:{port}"
     deadline = time.monotonic() + 30
     while time.monotonic() < deadline:
         try:
             if httpx.get(f"{base}/livez", timeout=1).status_code == 200:
-                break
+                return proc, base
         except httpx.HTTPError:
             time.sleep(0.1)
-    else:
-        proc.kill()
-        raise AssertionError("server did not start")
+    proc.kill()
+    raise AssertionError("server did not start")
+
+
+@pytest.fixture
+def server(tmp_path: Path) -> Iterator[str]:
+    proc, base = start_server(tmp_path / "srv.db")
     yield base
     proc.terminate()
     proc.wait(timeout=20)

@@ -1,0 +1,172 @@
+"""The mission worker process: runs one mission and reports everything as messages.
+
+Missions are CPU work (numpy, planning, the behaviour tree); in threads they would share the
+GIL with the API and slow every request. So each runs in its own process, and the supervisor's
+thread in the server turns the messages into store writes and websocket frames, in order.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import time
+from functools import cache
+from multiprocessing.queues import Queue
+from multiprocessing.synchronize import Event
+from pathlib import Path
+from typing import Any
+
+from app.executor.runner import MissionError, MissionRunner
+from app.missions.spec import MissionSpec
+from primitives.library import Library
+from primitives.steering import Steering
+from sim.obstacles import Circle
+
+WORKER_NICENESS = 10
+STATE_SAVE_SECONDS = 1.0  # wall seconds between state writes of a running mission
+Message = tuple[Any, ...]
+
+
+@cache
+def library_and_steering(path: str) -> tuple[Library, Steering]:
+    library = Library.load(Path(path))
+    return library, Steering(library)
+
+
+def reactive_actions(plan: list[str], goal: tuple[float, float] | None) -> list[dict[str, Any]]:
+    """The reactive plan's move(angle, shape) actions, as the plan resource lists them."""
+    out = []
+    for text in plan:
+        name, shape = text.strip("()").split()
+        angle = {"po1": 0.0, "po2": 90.0, "po3": -90.0}[name]
+        out.append(
+            {
+                "name": name,
+                "args": [shape],
+                "heading": angle,
+                "shape": shape,
+                "target": None if goal is None else {"x": goal[0], "y": goal[1]},
+                "grounding": {
+                    "method": "steering",
+                    "primitives": [],
+                    "relative_to": "goal direction",
+                },
+            }
+        )
+    return out
+
+
+def mission_state(runner: MissionRunner) -> dict[str, Any]:
+    ctx = runner.ctx
+    x, y, psi = ctx.pose
+    return {
+        "goals": [g.to_dict() for g in ctx.goals],
+        "pose": {"x": x, "y": y, "psi": psi, "joints": [float(j) for j in ctx.sim.joints]},
+        "model_time": round(ctx.t, 3),
+        "collisions": ctx.sim.collisions,
+        "replans": sum(1 for r in ctx.replans if r.trigger != "initial"),
+        "shape": ctx.shape,
+        "action": ctx.current_action,
+        "sensed": [
+            [round(o.x, 3), round(o.y, 3)] for o in ctx.knowledge.sensed if isinstance(o, Circle)
+        ],
+    }
+
+
+def plan_messages(runner: MissionRunner, seen: int) -> list[Message]:
+    """("plan", ...) and ("replan", ...) messages for plans made since version ``seen``."""
+    ctx = runner.ctx
+    out: list[Message] = []
+    domain = ctx.spec.planner.domain
+    for entry, record in zip(ctx.pddl[seen:], ctx.replans[seen:], strict=False):
+        if domain == "navigation" and ctx.plan is not None and entry["version"] == ctx.plan_version:
+            actions = [a.to_dict() for a in ctx.plan.actions]
+        elif domain == "reactive":
+            left = ctx.remaining_goals()
+            goal = (ctx.goals[left[0]].x, ctx.goals[left[0]].y) if left else None
+            actions = reactive_actions(entry["plan"], goal)
+        else:
+            actions = []
+        out.append(
+            (
+                "plan",
+                entry["version"],
+                domain,
+                entry["domain"],
+                entry["problem"],
+                entry["plan"],
+                actions,
+            )
+        )
+        if record.trigger != "initial":
+            out.append(("replan", record.to_dict()))
+    return out
+
+
+def run_mission_process(
+    mission_id: str,
+    request: dict[str, Any],
+    library_path: str,
+    ws_rate: float,
+    queue: Queue[Message],
+    cancel: Event,
+) -> None:
+    """The process target: run the mission, report through ``queue``, always end with ("end", ...)."""
+    with contextlib.suppress(OSError):
+        os.nice(WORKER_NICENESS)  # the API process keeps priority: requests stay fast under load
+    try:
+        _run(mission_id, request, library_path, ws_rate, queue, cancel)
+    except Exception as exc:  # report, never die silently
+        queue.put(("end", "failed", f"internal error: {type(exc).__name__}: {exc}", None))
+
+
+def _run(
+    mission_id: str,
+    request: dict[str, Any],
+    library_path: str,
+    ws_rate: float,
+    queue: Queue[Message],
+    cancel: Event,
+) -> None:
+    spec = MissionSpec.model_validate(request)
+    library, steering = library_and_steering(library_path)
+    queue.put(("transition", "planning", "", None))
+    try:
+        runner = MissionRunner(
+            spec, library, steering, mission_id=mission_id.replace("-", ""), cancel=cancel
+        )
+    except MissionError as exc:
+        queue.put(("end", "failed", str(exc), None))
+        return
+    started = time.perf_counter()
+    last_state = last_save = 0.0
+    versions, events_sent, executing = 0, 0, False
+    period = 1.0 / ws_rate
+    while True:
+        done = runner.step()
+        ctx = runner.ctx
+        if ctx.plan_version > versions:
+            for message in plan_messages(runner, versions):
+                queue.put(message)
+            versions = ctx.plan_version
+        for event in ctx.events[events_sent:]:
+            queue.put(("frame", {"type": "event", **event}))
+        events_sent = len(ctx.events)
+        if done:
+            break
+        if not executing:
+            queue.put(("transition", "executing", "", mission_state(runner)))
+            executing = True
+        wall = time.perf_counter()
+        if wall - last_state >= period:
+            queue.put(("frame", {"type": "state", **runner.snapshot()}))
+            last_state = wall
+        if wall - last_save >= STATE_SAVE_SECONDS:
+            queue.put(("state", mission_state(runner)))
+            last_save = wall
+        if spec.speed > 0:  # pace model time against the wall clock
+            ahead = ctx.t / spec.speed - (time.perf_counter() - started)
+            if ahead > 0:
+                cancel.wait(ahead)
+    queue.put(("trajectory", runner.trajectory()))
+    queue.put(("end", runner.status, runner.reason, mission_state(runner)))
