@@ -131,11 +131,11 @@ class IndexedTask(Task):  # type: ignore[misc]
         self, state: frozenset[Fact]
     ) -> list[tuple[Operator, frozenset[Fact]]]:
         self.expansions += 1
-        if self.expansions % 64 == 0:
-            if self.cancel is not None and self.cancel.is_set():
-                raise SearchStopped("cancelled")
-            if time.monotonic() > self.deadline:
-                raise SearchStopped("timeout")
+        # Checked on every expansion: one expansion under hFF can cost tens of milliseconds.
+        if self.cancel is not None and self.cancel.is_set():
+            raise SearchStopped("cancelled")
+        if time.monotonic() > self.deadline:
+            raise SearchStopped("timeout")
         candidates = [c for fact in state for c in self._index.get(fact, ())]
         candidates.sort(key=lambda c: c[0])
         return [(op, op.apply(state)) for _, op in candidates if op.preconditions <= state]

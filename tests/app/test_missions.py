@@ -201,3 +201,21 @@ def test_paper_command_lists_and_runs(tmp_path: Path) -> None:
     )
     ran = CliRunner().invoke(cli, ["paper", "fig8", "--out", str(tmp_path)])
     assert ran.exit_code == 0 and "the paper" in ran.output and (tmp_path / "fig8.png").exists()
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ('{"goals": [{"x": 1, "y": 1}], "obst', "not valid JSON"),
+        ("", "not valid JSON"),
+        ('{"version": 7, "goals": [{"x": 1, "y": 1}]}', "version: Extra inputs are not permitted"),
+        ("[1, 2, 3]", "mission"),
+    ],
+)
+def test_corrupt_truncated_or_future_mission_files(tmp_path: Path, text: str, message: str) -> None:
+    path = tmp_path / "m.json"
+    path.write_text(text)
+    with pytest.raises(MissionFileError, match=message):
+        load_mission(path)
+    with pytest.raises(MissionFileError, match="cannot read"):
+        load_mission(tmp_path / "missing.json")

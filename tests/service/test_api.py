@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import time
 from pathlib import Path
 
@@ -318,3 +319,56 @@ def test_timestamps_are_timezone_aware_utc(client: TestClient) -> None:
     assert m["created_at"].endswith(("Z", "+00:00")) and m["transitions"][0]["at"].endswith(
         ("Z", "+00:00")
     )
+
+
+def test_websocket_oversized_message_closes_only_that_client(client: TestClient) -> None:
+    mission = client.post("/missions", json={**GOAL, "speed": 5}).json()
+    from starlette.websockets import WebSocketDisconnect
+
+    with (
+        client.websocket_connect(f"/missions/{mission['id']}/ws") as bad,
+        client.websocket_connect(f"/missions/{mission['id']}/ws") as good,
+    ):
+        assert (
+            bad.receive_json()["type"] == "snapshot" and good.receive_json()["type"] == "snapshot"
+        )
+        bad.send_text("x" * 10_000)
+        with pytest.raises(WebSocketDisconnect) as closed:
+            for _ in range(1000):
+                bad.receive_json()
+        assert closed.value.code == 1009
+        good.send_json({"type": "ping"})
+        assert any(good.receive_json()["type"] == "pong" for _ in range(1000))
+    client.post(f"/missions/{mission['id']}/cancel")
+
+
+def test_planning_past_its_time_limit_ends_failed_with_the_reason(client: TestClient) -> None:
+    body = {
+        "name": "slow planner",
+        "goals": [{"x": 8, "y": 8}, {"x": -8, "y": 8}, {"x": 8, "y": -8}, {"x": -8, "y": -8}],
+        "order": "any",
+        "planner": {"heuristic": "hff", "time_limit": 0.05, "spacing": 0.5},
+    }
+    m = wait_end(client, client.post("/missions", json=body).json()["id"])
+    assert m["status"] == "failed" and "timeout" in m["reason"]
+
+
+def test_goal_walled_in_by_hidden_obstacles_ends_failed_with_the_reason(client: TestClient) -> None:
+    ring = [
+        {
+            "type": "circle",
+            "x": 3 + 0.9 * math.cos(a / 8 * math.tau),
+            "y": 3 + 0.9 * math.sin(a / 8 * math.tau),
+            "radius": 0.35,
+            "known": False,
+        }
+        for a in range(8)
+    ]
+    body = {
+        **GOAL,
+        "goals": [{"x": 3, "y": 3}],
+        "obstacles": ring,
+        "start": {"x": 0, "y": 0, "psi": -2.356},
+    }
+    m = wait_end(client, client.post("/missions", json=body).json()["id"], timeout=120)
+    assert m["status"] == "failed" and m["reason"] and m["collisions"] == 0
