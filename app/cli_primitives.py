@@ -40,11 +40,7 @@ def learn(
 ) -> None:
     """Learn one primitive, with a progress bar and a learning-curve plot."""
     try:
-        if shape == "free":
-            space = ParameterSpace("U2")
-        else:
-            s = shape_named(shape)
-            space = ParameterSpace("U3") if s.periodic else ParameterSpace("U1", s.joints)
+        space = ParameterSpace.for_shape(shape)
         task = LearningTask(goal, space)
         algo = make_learner(learner)
         stop = StopRule(threshold, max_updates)

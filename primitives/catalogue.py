@@ -6,7 +6,7 @@ import math
 from dataclasses import dataclass
 
 from primitives.params import ParameterSpace
-from primitives.shapes import SHAPES, shape_named
+from primitives.shapes import SHAPES
 
 # Fig. 6: G1..G8 as start-frame displacements (kinematics.md §9).
 FIG6_GOALS: tuple[tuple[float, float], ...] = (
@@ -42,8 +42,7 @@ class PrimitiveSpec:
     goal: tuple[float, float]
 
     def space(self) -> ParameterSpace:
-        shape = shape_named(self.shape)
-        return ParameterSpace("U3") if shape.periodic else ParameterSpace("U1", shape.joints)
+        return ParameterSpace.for_shape(self.shape)
 
 
 def label_for(shape: str, goal_index: int) -> str | None:

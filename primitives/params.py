@@ -8,6 +8,7 @@ from typing import Literal
 import numpy as np
 from numpy.typing import ArrayLike
 
+from primitives.shapes import shape_named
 from sim.controls import Control, FixedShape, PeriodicGait
 from sim.robot import Array
 
@@ -60,6 +61,14 @@ class ParameterSpace:
         if self.kind == "U2":
             return FixedShape.of(p[:, :4], p[:, 4:])
         return PeriodicGait.of(p[:, :4], p[:, 4:])
+
+    @classmethod
+    def for_shape(cls, shape: str) -> ParameterSpace:
+        """U3 for the periodic gait, U1 holding a fixed shape, U2 for ``free`` (joints learned)."""
+        if shape == "free":
+            return cls("U2")
+        s = shape_named(shape)
+        return cls("U3") if s.periodic else cls("U1", s.joints)
 
     def split(
         self, params: ArrayLike

@@ -11,7 +11,6 @@ from app.service.metrics import Metrics
 from app.store.repo import Store
 from primitives.learners import CancelledError, StopRule, UpdateRecord, make_learner
 from primitives.params import ParameterSpace
-from primitives.shapes import shape_named
 from primitives.task import LearningTask
 
 PROGRESS_SECONDS = 0.2
@@ -48,12 +47,7 @@ class Jobs:
         if cancel.is_set():
             return
         self.store.update_job(job_id, status="running")
-        shape = request["shape"]
-        if shape == "free":
-            space = ParameterSpace("U2")
-        else:
-            s = shape_named(shape)
-            space = ParameterSpace("U3") if s.periodic else ParameterSpace("U1", s.joints)
+        space = ParameterSpace.for_shape(request["shape"])
         goal = (float(request["goal"][0]), float(request["goal"][1]))
         task = LearningTask(goal, space)
         stop = StopRule(request["threshold"], request["max_updates"])

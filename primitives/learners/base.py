@@ -111,6 +111,15 @@ class Recorder:
         self.progress = progress
         self.started = time.perf_counter()
 
+    def start(self, task: LearningTask, initial: Array | None) -> tuple[Array, float]:
+        """The clamped start (zeros unless given), evaluated noise-free and recorded as update 0."""
+        space = task.space
+        u = space.clamp(np.zeros(space.size) if initial is None else np.asarray(initial, float))
+        cost = float(task.costs(u[None, :])[0])
+        self.seen(u[None, :], np.array([cost]))
+        self.record(0, cost, np.array([]), u)
+        return u, cost
+
     def seen(self, params: Array, costs: Array) -> None:
         """Count rollouts and remember the best parameter vector among them."""
         self.rollouts += len(costs)

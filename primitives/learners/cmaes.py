@@ -51,9 +51,7 @@ class CMAES:
         es = cma.CMAEvolutionStrategy(list(x0), self.sigma0, options)
         restarts = 0
         rec = Recorder(progress)
-        cost = float(task.costs(x0[None, :])[0])
-        rec.seen(x0[None, :], np.array([cost]))
-        rec.record(0, cost, np.array([]), x0)
+        rec.start(task, x0)
         update = 0
         while (
             rec.best_cost >= stop.threshold

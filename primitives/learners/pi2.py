@@ -51,11 +51,8 @@ class PI2:
     ) -> LearningResult:
         rng = np.random.default_rng(seed)
         space = task.space
-        u = space.clamp(np.zeros(space.size) if initial is None else np.asarray(initial, float))
         rec = Recorder(progress)
-        cost = float(task.costs(u[None, :])[0])
-        rec.seen(u[None, :], np.array([cost]))
-        rec.record(0, cost, np.array([]), u)
+        u, cost = rec.start(task, initial)
         update = 0
         while (
             cost >= stop.threshold

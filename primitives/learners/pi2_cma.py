@@ -49,16 +49,13 @@ class PI2CMA:
     ) -> LearningResult:
         rng = np.random.default_rng(seed)
         space = task.space
-        mean = space.clamp(np.zeros(space.size) if initial is None else np.asarray(initial, float))
         sig = np.full(space.size, self.sigma0)
         if space.kind == "U3":
             sig[4:] = self.phase_sigma0
         cov0 = np.diag(sig**2)
         cov = cov0
         rec = Recorder(progress)
-        cost = float(task.costs(mean[None, :])[0])
-        rec.seen(mean[None, :], np.array([cost]))
-        rec.record(0, cost, np.array([]), mean)
+        mean, cost = rec.start(task, initial)
         update, stalled, last_best = 0, 0, rec.best_cost
         while (
             rec.best_cost >= stop.threshold
