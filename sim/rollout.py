@@ -75,13 +75,20 @@ def start_poses(start: ArrayLike, size: int) -> Array:
     return poses
 
 
-def twists(control: Control, times: Array, config: RolloutConfig, geometry: RobotGeometry) -> Array:
-    """Body-frame twists ``[K, N, 3]`` at the step times ``times`` ``[N]``."""
+def twists(
+    control: Control,
+    times: Array,
+    config: RolloutConfig,
+    geometry: RobotGeometry,
+    phi: Array | None = None,
+) -> Array:
+    """Body-frame twists ``[K, N, 3]`` at the step times ``times`` ``[N]`` (``phi``: their joint
+    angles, when the caller has them already)."""
     if isinstance(control, FixedShape):
         # Constant shape, no joint motion: one solve per rollout serves every step.
         once = body_twist(control.theta, control.joints, None, geometry)
         return np.broadcast_to(once[:, None, :], (control.size, times.size, 3))
-    phi = control.angles(times)
+    phi = control.angles(times) if phi is None else phi
     dphi = control.rates(times) if config.joint_mode == "complete" else None
     theta = np.broadcast_to(control.theta[:, None, :], (*phi.shape[:2], 4))
     return body_twist(theta, phi, dphi, geometry)
@@ -96,13 +103,13 @@ def rollout(
     """Simulate every control of the batch from ``start`` for ``config.duration``."""
     times = config.times()
     poses0 = start_poses(start, control.size)
-    tw = twists(control, times[:-1], config, geometry)  # twist held over [t_k, t_k+1)
+    phi = control.angles(times)
+    tw = twists(control, times[:-1], config, geometry, phi[:, :-1])  # twist held over [t_k, t_k+1)
     dpsi = config.dt * tw[..., 2]
     psi = poses0[:, 2:3] + np.concatenate([np.zeros((control.size, 1)), np.cumsum(dpsi, 1)], 1)
     dxy = config.dt * rotate(tw[..., :2], psi[:, :-1])
     zero = np.zeros((control.size, 1, 2))
     xy = poses0[:, None, :2] + np.concatenate([zero, np.cumsum(dxy, axis=1)], axis=1)
-    phi = control.angles(times)
     states = np.concatenate([xy, psi[..., None], phi], axis=-1)
     return Rollouts(times, states)
 
