@@ -17,7 +17,6 @@ class Settings(BaseModel):
     ws_queue: int = Field(
         256, ge=8, le=100_000
     )  # undeliverable event frames before a client is dropped
-    resume: bool = False  # on start-up: resume interrupted missions instead of failing them
 
     @classmethod
     def from_env(cls) -> Settings:

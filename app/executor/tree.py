@@ -8,7 +8,6 @@ import py_trees
 from py_trees.composites import Selector, Sequence
 
 from app.executor.behaviours import (
-    ChainStepBehaviour,
     FollowPlan,
     GoalReached,
     HavePlan,
@@ -17,6 +16,7 @@ from app.executor.behaviours import (
     Replan,
     ShapeGuard,
 )
+from app.executor.chain import ChainStepBehaviour
 from app.missions.spec import MissionSpec
 
 
