@@ -68,6 +68,13 @@ class LearningResult:
 Progress = Callable[[UpdateRecord], None]
 
 
+class SettingsFromFields:
+    """``settings()`` for dataclass learners: every field but the name (stored with results)."""
+
+    def settings(self) -> dict[str, Any]:
+        return {k: v for k, v in asdict(self).items() if k != "name"}  # type: ignore[call-overload]
+
+
 class CancelledError(Exception):
     """Raised inside a learner when its progress callback asks it to stop."""
 

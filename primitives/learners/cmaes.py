@@ -2,26 +2,29 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
-from typing import Any
+from dataclasses import dataclass
 
 import cma
 import numpy as np
 
-from primitives.learners.base import DEFAULT_STOP, LearningResult, Progress, Recorder, StopRule
+from primitives.learners.base import (
+    DEFAULT_STOP,
+    LearningResult,
+    Progress,
+    Recorder,
+    SettingsFromFields,
+    StopRule,
+)
 from primitives.task import LearningTask
 from sim.robot import Array
 
 
 @dataclass(frozen=True)
-class CMAES:
+class CMAES(SettingsFromFields):
     popsize: int = 8
     sigma0: float = 0.15
     patience: int = 30  # generations without a 1 % better best before a restart
     name: str = "cmaes"
-
-    def settings(self) -> dict[str, Any]:
-        return {k: v for k, v in asdict(self).items() if k != "name"}
 
     def _stalled(self, rec: Recorder) -> bool:
         h = rec.history

@@ -3,8 +3,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -13,6 +12,7 @@ from primitives.learners.base import (
     LearningResult,
     Progress,
     Recorder,
+    SettingsFromFields,
     StopRule,
     probability_weights,
 )
@@ -21,7 +21,7 @@ from sim.robot import Array
 
 
 @dataclass(frozen=True)
-class PI2:
+class PI2(SettingsFromFields):
     """The paper's PI²: zero start, noisy rollouts, probability-weighted noise as the update."""
 
     rollouts: int = 40
@@ -29,9 +29,6 @@ class PI2:
     noise_length: float = 10.0  # L in exp(−1/r)/L, metres
     phase_noise: float = 0.02  # std of the phase noise N(0, 0.02) for U3
     name: str = "pi2"
-
-    def settings(self) -> dict[str, Any]:
-        return {k: v for k, v in asdict(self).items() if k != "name"}
 
     def noise_std(self, cost: float) -> float:
         """§3.2: exp(−1/r)/L for r > 3 m, 0.05 for 0.5 < r <= 3 m, 0.025 below."""

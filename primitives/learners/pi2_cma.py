@@ -8,8 +8,7 @@ below the threshold is a solution already (the simulator is deterministic), so i
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -18,6 +17,7 @@ from primitives.learners.base import (
     LearningResult,
     Progress,
     Recorder,
+    SettingsFromFields,
     StopRule,
     probability_weights,
 )
@@ -26,7 +26,7 @@ from sim.robot import Array
 
 
 @dataclass(frozen=True)
-class PI2CMA:
+class PI2CMA(SettingsFromFields):
     rollouts: int = 10
     lam: float = 10.0
     sigma0: float = 0.25  # initial exploration of speeds and joints
@@ -35,9 +35,6 @@ class PI2CMA:
     min_sigma: float = 1e-4
     patience: int = 6  # updates without a 1 % better best rollout before exploration restarts
     name: str = "pi2-cma"
-
-    def settings(self) -> dict[str, Any]:
-        return {k: v for k, v in asdict(self).items() if k != "name"}
 
     def learn(
         self,
