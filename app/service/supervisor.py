@@ -12,6 +12,7 @@ from __future__ import annotations
 import asyncio
 import logging
 import multiprocessing
+import os
 import queue as queue_module
 import threading
 from concurrent.futures import ThreadPoolExecutor
@@ -154,7 +155,15 @@ class Supervisor:
 
     def _execute(self, mission_id: str, request: dict[str, Any], cancel: ProcessEvent) -> None:
         messages: multiprocessing.Queue[Message] = CONTEXT.Queue()
-        args = (mission_id, request, self.library_path, self.settings.ws_rate, messages, cancel)
+        args = (
+            mission_id,
+            request,
+            self.library_path,
+            self.settings.ws_rate,
+            messages,
+            cancel,
+            os.getpid(),
+        )
         process = CONTEXT.Process(
             target=run_mission_process, args=args, name=f"mission-{mission_id[:8]}", daemon=True
         )

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import threading
 import time
 from functools import cache
 from multiprocessing.queues import Queue
@@ -103,6 +104,20 @@ def plan_messages(runner: MissionRunner, seen: int) -> list[Message]:
     return out
 
 
+def watch_server(server_pid: int, period: float = 1.0) -> None:
+    """Exit as soon as the server process is gone (e.g. SIGKILLed): nobody reads our messages
+    any more, and a worker must never outlive its server or hang on a full pipe."""
+    while True:
+        time.sleep(period)
+        try:
+            os.kill(server_pid, 0)
+        except (
+            ProcessLookupError,
+            PermissionError,
+        ):  # gone (or the pid now belongs to another user)
+            os._exit(3)
+
+
 def run_mission_process(
     mission_id: str,
     request: dict[str, Any],
@@ -110,8 +125,12 @@ def run_mission_process(
     ws_rate: float,
     queue: Queue[Message],
     cancel: Event,
+    server_pid: int,
 ) -> None:
     """The process target: run the mission, report through ``queue``, always end with ("end", ...)."""
+    threading.Thread(
+        target=watch_server, args=(server_pid,), daemon=True, name="watch-server"
+    ).start()
     with contextlib.suppress(OSError):
         os.nice(WORKER_NICENESS)  # the API process keeps priority: requests stay fast under load
     try:

@@ -23,6 +23,30 @@ SLOW = {
 }
 
 
+def survivors(marker: str) -> list[int]:
+    """Processes whose environment names ``marker`` (the server and its workers inherit it)."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if entry.name.isdigit():
+            try:
+                if marker.encode() in (entry / "environ").read_bytes():
+                    found.append(int(entry.name))
+            except OSError:
+                continue
+    return found
+
+
+def no_process_outlives(marker: str, timeout: float) -> bool:
+    if not Path("/proc/self/environ").exists():
+        return True  # not Linux: nothing to look at
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if not survivors(marker):
+            return True
+        time.sleep(0.2)
+    return False
+
+
 def wait_for(base: str, mission_id: str, statuses: tuple[str, ...], timeout: float = 60) -> dict:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
@@ -47,6 +71,7 @@ def test_sigkill_mid_mission_then_restart(tmp_path: Path) -> None:
     finally:
         proc.kill()  # SIGKILL: no shutdown handlers run
         proc.wait(timeout=20)
+    assert no_process_outlives(str(db), timeout=10), "a mission worker outlived its killed server"
     with sqlite3.connect(db) as conn:
         assert conn.execute("PRAGMA integrity_check").fetchone()[0] == "ok"
     proc, base = start_server(db)
