@@ -10,21 +10,14 @@ import numpy as np
 import typer
 from rich.table import Table
 
+from app.cli_primitives import load_library
 from app.console import console, fail
 from app.executor.context import MissionResult
 from app.executor.runner import MissionError, MissionRunner
 from app.missions.spec import MissionFileError, MissionSpec, load_mission
 from app.plots import plot_trajectories
-from primitives.library import Library, LibraryError, bundled_library_path
 from sim.obstacles import Circle, Obstacle
 from sim.world import World
-
-
-def load_library(path: Path | None) -> Library:
-    try:
-        return Library.load(path or bundled_library_path())
-    except LibraryError as exc:
-        raise fail(str(exc)) from exc
 
 
 def plot_mission(

@@ -76,7 +76,7 @@ def learn(
     console.print(f"plot: {out}")
 
 
-def _load(path: Path | None) -> Library:
+def load_library(path: Path | None) -> Library:
     try:
         return Library.load(path or bundled_library_path())
     except LibraryError as exc:
@@ -138,7 +138,7 @@ def library_show(
     shape: Annotated[str | None, typer.Option(help="only this shape")] = None,
 ) -> None:
     """List the primitives: id, label, shape, goal, direction, parameters, error."""
-    library = _load(path)
+    library = load_library(path)
     table = Table(title=f"{len(library)} primitives")
     for col in (
         "id",
@@ -178,7 +178,7 @@ def library_plot(
     out: Annotated[Path, typer.Option(help="PNG to write")] = Path("out/library.png"),
 ) -> None:
     """Draw each primitive's trajectory from the start pose, like the paper's Fig. 6."""
-    library = _load(path)
+    library = load_library(path)
     entries = library.of_shape(shape)
     if not entries:
         raise fail(f"no primitives of shape {shape!r}; shapes: {', '.join(library.shapes())}")

@@ -17,24 +17,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from sim.obstacles import Obstacle
-from sim.robot import DEFAULT_GEOMETRY, Array, head_tip, joint_positions
-from sim.world import Bounds
+from sim.robot import Array
+from sim.world import Bounds, footprint
 
 GRID_DIRECTIONS = ((1, 0), (1, 1), (0, 1), (-1, 1), (-1, 0), (-1, -1), (0, -1), (1, -1))
 MAX_NODES = 40_000
 Mask = NDArray[np.bool_]
-
-
-def body_capsules(points: Array, psi: float, joints: Array) -> tuple[Array, Array, Array]:
-    """The footprint capsules (head + 4 units) with the head at each of ``points`` ``[N, 2]``."""
-    poses = np.column_stack([points, np.full(len(points), psi)])
-    js = joint_positions(poses, np.broadcast_to(joints, (len(points), 3)))  # [N, 5, 2]
-    tips = head_tip(poses)[:, None, :]
-    starts = np.concatenate([tips, js[:, :-1]], axis=1)
-    ends = np.concatenate([js[:, :1], js[:, 1:]], axis=1)
-    g = DEFAULT_GEOMETRY
-    radii = np.array([g.head_radius] + [g.unit_radius] * 4)
-    return starts, ends, radii
 
 
 def heading_of(dx: float, dy: float, step: float = 45.0) -> float:
@@ -108,10 +96,14 @@ class Roadmap:
             ok &= ob.segment_clearance(points, points) >= self.inflation
         return ok
 
-    def segments_clear(self, a: Array, b: Array, obstacles: Iterable[Obstacle]) -> Mask:
+    def segments_clear(
+        self, a: Array, b: Array, obstacles: Iterable[Obstacle], need: float | None = None
+    ) -> Mask:
+        """Segments that keep ``need`` (default: the inflation) from every obstacle."""
+        need = self.inflation if need is None else need
         ok: Mask = np.ones(len(a), dtype=bool)
         for ob in obstacles:
-            ok &= ob.segment_clearance(a, b) >= self.inflation
+            ok &= ob.segment_clearance(a, b) >= need
         return ok
 
     @property
@@ -146,15 +138,12 @@ class Roadmap:
         if near.size == 0:
             near = np.argsort(d)[:4]
         here = np.repeat([[x, y]], near.size, axis=0)
+        need = self.inflation
         if escape:
             p = np.array([[x, y]])
             now = min([float(ob.segment_clearance(p, p)[0]) for ob in obstacles], default=np.inf)
             need = min(self.inflation, 0.9 * now)
-            ok: Mask = np.ones(near.size, dtype=bool)
-            for ob in obstacles:
-                ok &= ob.segment_clearance(here, grid[near]) >= need
-        else:
-            ok = self.segments_clear(here, grid[near], obstacles)
+        ok = self.segments_clear(here, grid[near], obstacles, need)
         ok &= self.point_clear(grid[near], obstacles, bounds)
         out = []
         for n in near[ok]:
@@ -181,7 +170,8 @@ class Roadmap:
         a, b = self.points[self.starts], self.points[self.ends]
         ok: Mask = np.ones(len(a), dtype=bool)
         for where in (a, b, (a + b) / 2):
-            starts, ends, radii = body_capsules(where, psi, joints)
+            fp = footprint(np.column_stack([where, np.full(len(where), psi)]), joints)
+            starts, ends, radii = fp.starts, fp.ends, fp.radii
             clear = np.ones(len(a), dtype=bool)
             for ob in obstacles:
                 gap = ob.segment_clearance(starts, ends) - radii  # [E, 5]

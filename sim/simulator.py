@@ -170,7 +170,7 @@ class Simulator:
         )
         # Chords under-estimate arcs slightly when the body turns; 5 % covers |Δψ| up to ~0.6 rad.
         travel = 1.05 * float(np.max(np.linalg.norm(points1 - points0, axis=-1)))
-        if travel <= self._clearance(pose0, phi0):
+        if travel <= self.world.gap(footprint(pose0, phi0, self.geometry)):
             self.pose, self.joints = pose1, phi1
             return None
         n = max(1, math.ceil(travel / self.check_step))
@@ -182,12 +182,3 @@ class Simulator:
                 return contact
             self.pose, self.joints = pose, phi
         return None
-
-    def _clearance(self, pose: Array, phi: Array) -> float:
-        """Smallest gap between the footprint and any obstacle or wall (0 if touching)."""
-        fp = footprint(pose, phi, self.geometry)
-        ends = np.concatenate([fp.starts, fp.ends])
-        gap = float(np.min(self.world.bounds.wall_clearance(ends) - np.tile(fp.radii, 2)))
-        for obstacle in self.world.obstacles:
-            gap = min(gap, float(np.min(obstacle.segment_clearance(fp.starts, fp.ends) - fp.radii)))
-        return max(gap, 0.0)

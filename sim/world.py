@@ -51,7 +51,7 @@ class Bounds:
 
 @dataclass(frozen=True)
 class Footprint:
-    """Capsules covering the robot: segment ends ``[5, 2, 2]`` (head, units 1-4) and radii ``[5]``."""
+    """Capsules covering the robot: segment ends ``[..., 5, 2]`` (head, units 1-4), radii ``[5]``."""
 
     starts: Array
     ends: Array
@@ -59,11 +59,11 @@ class Footprint:
 
 
 def footprint(pose: Array, joints: Array, geometry: RobotGeometry = DEFAULT_GEOMETRY) -> Footprint:
-    """The head capsule and the four unit capsules at ``pose`` ``[3]`` with ``joints`` ``[3]``."""
-    js = joint_positions(pose, joints, geometry)  # [5, 2]
+    """The head capsule and the four unit capsules at poses ``[..., 3]`` with ``joints`` ``[3]``."""
+    js = joint_positions(pose, joints, geometry)  # [..., 5, 2]
     tip = head_tip(pose, geometry)
-    starts = np.vstack([tip[None, :], js[:-1]])
-    ends = np.vstack([js[:1], js[1:]])
+    starts = np.concatenate([tip[..., None, :], js[..., :-1, :]], axis=-2)
+    ends = np.concatenate([js[..., :1, :], js[..., 1:, :]], axis=-2)
     radii = np.array([geometry.head_radius] + [geometry.unit_radius] * 4)
     return Footprint(starts, ends, radii)
 
@@ -110,10 +110,10 @@ class World:
         what = np.where(dist <= max_range, what, -2)
         return np.minimum(dist, max_range), what
 
-    def clearance(self, x: float, y: float) -> float:
-        """Distance from a point to the nearest obstacle (0 inside one); walls not counted."""
-        p = np.array([x, y])
-        best = math.inf
+    def gap(self, fp: Footprint) -> float:
+        """Smallest gap between a footprint and any obstacle or wall (0 if touching)."""
+        ends = np.concatenate([fp.starts, fp.ends])
+        gap = float(np.min(self.bounds.wall_clearance(ends) - np.tile(fp.radii, 2)))
         for obstacle in self.obstacles:
-            best = min(best, float(obstacle.segment_clearance(p[None, :], p[None, :])[0]))
-        return best
+            gap = min(gap, float(np.min(obstacle.segment_clearance(fp.starts, fp.ends) - fp.radii)))
+        return max(gap, 0.0)

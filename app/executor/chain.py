@@ -24,7 +24,7 @@ class ChainStepBehaviour(MissionBehaviour):
 
     def initialise(self) -> None:
         ctx = self.ctx
-        ctx.chain_index, ctx.chain_started = self.index, ctx.t
+        ctx.chain_started = ctx.t
 
     def update(self) -> Status:
         ctx = self.ctx

@@ -74,9 +74,7 @@ class MissionContext:
     collisions_seen: int = 0
     gait_t0: float = 0.0  # the periodic gait's phase origin (continuous joints across intervals)
     interval: float = 1.0  # model seconds per control interval
-    chain_index: int = 0
     chain_started: float = 0.0
-    chain_pose: tuple[float, float, float] | None = None
 
     @property
     def t(self) -> float:

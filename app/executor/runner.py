@@ -29,7 +29,6 @@ from primitives.shapes import classify_shape
 from primitives.steering import Steering
 from sim.controls import FixedShape
 from sim.events import Deformation
-from sim.obstacles import obstacle_from_dict
 from sim.sensors import RangeSensor, SensorSuite, range_ring
 from sim.simulator import Simulator
 from sim.world import World
@@ -219,4 +218,4 @@ def run_mission(
     return MissionRunner(spec, library, steering).run()
 
 
-__all__ = ["MissionError", "MissionRunner", "obstacle_from_dict", "run_mission"]
+__all__ = ["MissionError", "MissionRunner", "run_mission"]

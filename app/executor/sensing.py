@@ -7,9 +7,9 @@ import math
 import numpy as np
 
 from app.executor.context import MissionContext
-from domain.roadmap import body_capsules
 from sim.obstacles import Circle
 from sim.robot import head_tip
+from sim.world import footprint
 
 POINT_RADIUS = 0.1  # a sensed hit becomes a small disc; the roadmap inflation does the rest
 MERGE_DISTANCE = 0.25  # hits closer than this to a known point add nothing new
@@ -80,9 +80,9 @@ def body_blocked(ctx: MissionContext, direction: float) -> bool:
     obstacle? The head's sensors cannot see what the trailing body is about to touch."""
     x, y, psi = ctx.pose
     step = BODY_LOOKAHEAD * np.array([math.cos(direction), math.sin(direction)])
-    starts, ends, radii = body_capsules(
-        np.array([[x, y], [x + step[0], y + step[1]]]), psi, ctx.sim.joints
-    )
+    poses = np.array([[x, y, psi], [x + step[0], y + step[1], psi]])
+    fp = footprint(poses, ctx.sim.joints)
+    starts, ends, radii = fp.starts, fp.ends, fp.radii
     for ob in ctx.knowledge.obstacles:
         now = ob.segment_clearance(starts[0], ends[0]) - radii
         ahead = ob.segment_clearance(starts[1], ends[1]) - radii

@@ -57,7 +57,6 @@ class Hub:
     def __init__(self, limit: int = 256) -> None:
         self.limit = limit
         self.channels: dict[str, set[Channel]] = {}
-        self.frames_dropped = 0
         self.last_tree: dict[str, dict[str, Any]] = {}  # mission -> its latest tree snapshot
 
     def subscribe(self, mission_id: str) -> Channel:
@@ -66,7 +65,6 @@ class Hub:
         return channel
 
     def unsubscribe(self, mission_id: str, channel: Channel) -> None:
-        self.frames_dropped += channel.dropped
         group = self.channels.get(mission_id)
         if group is not None:
             group.discard(channel)
