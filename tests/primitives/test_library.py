@@ -59,8 +59,13 @@ def test_library_build_is_deterministic_and_matches_the_bundled_file() -> None:
     specs = [s for s in default_specs() if s.id in {"straight-g1", "zigzag-g7", "periodic-g6"}]
     seeds = {s.id: i for i, s in enumerate(default_specs())}
     for spec in specs:  # entry i was learned with seed i
-        rebuilt = build_library([spec], seed=seeds[spec.id])
-        assert next(iter(rebuilt)).model_dump() == LIB.get(spec.id).model_dump()
+        rebuilt = next(iter(build_library([spec], seed=seeds[spec.id]))).model_dump()
+        bundled = LIB.get(spec.id).model_dump()
+        # Same learner, seed and updates; floats agree to 1e-9 (another BLAS may round the last
+        # bits differently, so the bundled file is not compared byte for byte across machines).
+        assert rebuilt.keys() == bundled.keys()
+        for key, value in bundled.items():
+            assert rebuilt[key] == pytest.approx(value, abs=1e-9), key
 
 
 def test_process_pool_gives_the_same_library_as_serial() -> None:
