@@ -11,6 +11,8 @@ from sim.obstacles import unit_vectors
 from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry, head_tip
 from sim.world import World
 
+NOTHING = -2  # what a ray reports when nothing lies within its range
+
 
 @dataclass(frozen=True)
 class RangeSensor:
@@ -60,7 +62,9 @@ def range_ring(
 
 @dataclass(frozen=True)
 class SensorReadings:
-    """One reading of every sensor: ranges by name (``nan`` while dropped out), joints, pose."""
+    """One reading of every sensor: ranges by name (``nan`` while dropped out; exactly the
+    sensor's ``max_range`` when nothing is within range), joints, pose. ``hits`` names what each
+    sensor saw (simulator truth, for tests and logs: a robot port must not pass it on)."""
 
     ranges: dict[str, float]
     joints: Array
@@ -114,10 +118,11 @@ class SensorSuite:
             dist = np.minimum(dist, sensor.max_range)
             i = int(np.argmin(dist))
             value = float(dist[i])
-            if sensor.noise_std > 0:
-                value = float(
-                    np.clip(value + self.rng.normal(0, sensor.noise_std), 0, sensor.max_range)
-                )
+            if sensor.noise_std > 0 and what[i] != NOTHING:
+                # Noise only on real echoes: "nothing within range" reads exactly max_range, so
+                # an empty view never invents an obstacle (a noisy echo stays below max_range).
+                noisy = value + self.rng.normal(0, sensor.noise_std)
+                value = float(np.clip(noisy, 0, np.nextafter(sensor.max_range, 0)))
             ranges[sensor.name] = math.nan if sensor.name in dropped else value
             hits[sensor.name] = int(what[i])
         measured = np.array(joints, dtype=float)

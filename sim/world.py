@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -58,6 +59,14 @@ class Footprint:
     radii: Array
 
 
+def _point_distance(obstacle: Obstacle) -> Callable[[Array], Array]:
+    def distance(points: Array) -> Array:
+        p = np.atleast_2d(points)
+        return obstacle.segment_clearance(p, p).reshape(np.shape(points)[:-1])
+
+    return distance
+
+
 def footprint(pose: Array, joints: Array, geometry: RobotGeometry = DEFAULT_GEOMETRY) -> Footprint:
     """The head capsule and the four unit capsules at poses ``[..., 3]`` with ``joints`` ``[3]``."""
     js = joint_positions(pose, joints, geometry)  # [..., 5, 2]
@@ -68,12 +77,17 @@ def footprint(pose: Array, joints: Array, geometry: RobotGeometry = DEFAULT_GEOM
     return Footprint(starts, ends, radii)
 
 
+SIDES = ("front", "rear", "left", "right")
+
+
 @dataclass(frozen=True)
 class Contact:
-    """The first thing the footprint touches: an obstacle index (or WALL) and the body part."""
+    """The first thing the footprint touches: an obstacle index (or WALL), the body part and
+    the side of that part that touched (what a bumper or a stall-current sensor reports)."""
 
     obstacle: int
     part: int  # 0 = head, 1..4 = units
+    side: str = "front"  # one of SIDES, in the part's own frame (front = towards the head)
 
     @property
     def what(self) -> str:
@@ -90,12 +104,33 @@ class World:
         ends = np.concatenate([fp.starts, fp.ends])
         wall = self.bounds.wall_clearance(ends) < np.concatenate([fp.radii, fp.radii])
         if np.any(wall):
-            return Contact(WALL, int(np.argmax(wall)) % len(fp.radii))
+            part = int(np.argmax(wall)) % len(fp.radii)
+            return Contact(WALL, part, self._side(fp, part, self.bounds.wall_clearance))
         for index, obstacle in enumerate(self.obstacles):
             hit = obstacle.segment_clearance(fp.starts, fp.ends) < fp.radii
             if np.any(hit):
-                return Contact(index, int(np.argmax(hit)))
+                part = int(np.argmax(hit))
+                return Contact(index, part, self._side(fp, part, _point_distance(obstacle)))
         return None
+
+    @staticmethod
+    def _side(fp: Footprint, part: int, distance: Callable[[Array], Array]) -> str:
+        """Which side of ``part`` faces the thing at ``distance`` (a signed-ish distance field):
+        the axis point nearest to it, and the field's gradient there, in the part's frame."""
+        start, end = fp.starts[part], fp.ends[part]
+        s = np.linspace(0.0, 1.0, 9)
+        axis = start + s[:, None] * (end - start)
+        k = int(np.argmin(distance(axis)))
+        steps = 1e-4 * np.eye(2)
+        grad = distance(axis[k] + steps) - distance(axis[k] - steps)  # central differences
+        towards = -grad  # the field grows away from the obstacle
+        forward = start - end  # capsules run from the head side to the tail side
+        along = float(towards @ forward)
+        lateral = float(forward[0] * towards[1] - forward[1] * towards[0])
+        at_end = k in (0, len(s) - 1)
+        if at_end and abs(along) > abs(lateral):
+            return "front" if along > 0 else "rear"
+        return "left" if lateral > 0 else "right"
 
     def ray_cast(self, origin: Array, dirs: Array, max_range: float) -> tuple[Array, Array]:
         """First hits of rays ``[R, 2]`` from ``origin``: distances (capped at ``max_range``) and

@@ -143,3 +143,38 @@ def test_env_is_reproducible_and_rewards_progress() -> None:
 
     assert episode(1) == episode(1)
     assert sum(episode(1)[:5]) > 0
+
+
+SIDEWAYS_PLUS_Y = FixedShape.of([-1, -1, -1, -1], [0, 0, 0])  # straight body at ψ = 0 -> +y
+
+
+@pytest.mark.parametrize(
+    ("obstacle", "control", "part", "side"),
+    [
+        (rectangle(-2.0, 0.0, 0.1, 4.0), FORWARD, 0, "front"),  # head first into a wall
+        (rectangle(0.45, 1.0, 4.0, 0.1), SIDEWAYS_PLUS_Y, None, "right"),  # facing -x, +y is right
+        (rectangle(0.45, -1.0, 4.0, 0.1), FixedShape.of([1, 1, 1, 1], [0, 0, 0]), None, "left"),
+        (rectangle(2.5, 0.0, 0.1, 4.0), FixedShape.of([1, -1, 1, -1], [0, 0, 0]), 4, "rear"),
+    ],
+)
+def test_contact_reports_the_part_and_the_side_that_touched(obstacle, control, part, side) -> None:
+    sim = Simulator(World(obstacles=(obstacle,)), dt=0.5)
+    contact = next(r.contact for r in drive(sim, control, 80) if r.contact is not None)
+    assert contact.side == side
+    if part is not None:
+        assert contact.part == part
+
+
+def test_range_noise_never_turns_nothing_in_range_into_an_echo() -> None:
+    sensors = SensorSuite(
+        (RangeSensor("ir", 0.0, 0.8, math.radians(10), 3, 0.05), *range_ring(8, 1.0, 0.05))
+    )
+    sim = Simulator(World(bounds=Bounds(-10, 10, -10, 10)), sensors=sensors)
+    for seed in range(20):
+        reading = sim.reset(seed=seed)
+        assert reading.ranges["ir"] == 0.8
+        assert all(reading.ranges[f"ring{i}"] == 1.0 for i in range(8))
+    wall = World(obstacles=(rectangle(-0.6, 0.0, 0.1, 4.0),))  # 0.495 m ahead of the head tip
+    sim = Simulator(wall, sensors=sensors)
+    values = [sim.reset(seed=s).ranges["ir"] for s in range(200)]
+    assert 0.45 < float(np.mean(values)) < 0.54 and float(np.std(values)) > 0.02
