@@ -16,12 +16,17 @@ from app.executor.context import MissionResult
 from app.executor.runner import MissionError, MissionRunner
 from app.missions.spec import MissionFileError, MissionSpec, load_mission
 from app.plots import plot_trajectories
-from sim.obstacles import Circle, Obstacle
 from sim.world import World
 
 
+def sensed_cells(runner: MissionRunner) -> list[list[float]]:
+    """Where the world model holds sensed or contact obstacles (cell centres)."""
+    world = runner.ctx.world.to_dict()
+    return [*world.get("sensed", []), *world.get("contact", [])]
+
+
 def plot_mission(
-    spec: MissionSpec, result: MissionResult, out: Path, sensed: Sequence[Obstacle]
+    spec: MissionSpec, result: MissionResult, out: Path, sensed: Sequence[Sequence[float]]
 ) -> Path:
     states = np.array([row[1:] for row in result.trajectory])
     world = World(spec.bounds.bounds(), tuple(spec.world_obstacles()))
@@ -41,7 +46,7 @@ def plot_mission(
         world=world,
         outlines=6,
         marks=marks,
-        points=[(c.x, c.y) for c in sensed if isinstance(c, Circle)],
+        points=[(float(p[0]), float(p[1])) for p in sensed],
     )
 
 
@@ -94,7 +99,7 @@ def mission(
     result = runner.run()
     print_summary(result)
     path = plot_mission(
-        spec, result, out or Path("out") / f"{spec.name}.png", runner.ctx.knowledge.sensed
+        spec, result, out or Path("out") / f"{spec.name}.png", sensed_cells(runner)
     )
     console.print(f"plot: {path}")
     if result.status != "succeeded":

@@ -148,12 +148,12 @@ def fig8(library: Library, out: Path) -> tuple[list[Row], Path]:
 
 def mission_experiment(name: str, figure: str, title: str, paper: str) -> Experiment:
     def run(library: Library, out: Path) -> tuple[list[Row], Path]:
-        from app.cli_missions import plot_mission
+        from app.cli_missions import plot_mission, sensed_cells
 
         spec = load_mission(examples_dir() / f"{name}.json")
         runner = MissionRunner(spec, library)
         result = runner.run()
-        path = plot_mission(spec, result, out / f"{name}.png", runner.ctx.knowledge.sensed)
+        path = plot_mission(spec, result, out / f"{name}.png", sensed_cells(runner))
         errors = ", ".join(f"{g.error * 100:.1f}" for g in result.goals if g.error is not None)
         rows = [
             ("outcome", paper, f"{result.status}: {result.reason}"),

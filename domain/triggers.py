@@ -80,7 +80,34 @@ class Initial:
         return {}
 
 
-Trigger = ObstacleSensed | ShapeChanged | NoProgress | GoalsChanged | Timeout | Initial
+@dataclass(frozen=True)
+class PathBlocked:
+    """A precondition broke: the world model now occupies what a planned move sweeps."""
+
+    action: str
+    at: tuple[float, float]
+    kind: str = "path_blocked"
+
+    def detail(self) -> dict[str, Any]:
+        return {"action": self.action, "at": list(self.at)}
+
+
+@dataclass(frozen=True)
+class Contact:
+    """The contact sensor fired: a unit touched something (the world model now has it)."""
+
+    part: int
+    side: str
+    at: tuple[float, float]
+    kind: str = "contact"
+
+    def detail(self) -> dict[str, Any]:
+        return {"part": self.part, "side": self.side, "at": list(self.at)}
+
+
+Trigger = (
+    ObstacleSensed | ShapeChanged | NoProgress | GoalsChanged | Timeout | Initial | PathBlocked | Contact
+)
 
 
 @dataclass(frozen=True)

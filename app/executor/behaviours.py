@@ -1,36 +1,32 @@
-"""py_trees behaviours of the mission tree: conditions, guards, replanning and execution.
+"""py_trees behaviours of the mission tree: sensing, guards, execution and replanning.
 
-Behaviours decide; they never move the simulator. Each tick the tree leaves a command (one
-control interval of screw speeds and joints) on the mission context, and the runner steps the
-simulator in model time. Guards check the next action's preconditions from the sensors every
-tick; a guard that fires leaves a typed trigger and fails, which hands control to ``Replan``.
+Behaviours decide; they never move the robot. Each tick the tree leaves a command (screw
+speeds and joints for one control tick) on the mission context, and the runner sends it
+through the Robot port. ``Sense`` turns the latest observation into the world model; guards
+check the body shape and the plan's preconditions; ``Execute`` asks the planning strategy for
+the next command; a guard or execution that cannot go on leaves a typed trigger and fails,
+which hands control to ``Replan``. No behaviour branches on the planner kind: the strategy
+owns its plan.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 
 import numpy as np
 import py_trees
 from py_trees.common import Access, Status
 
 from app.executor.context import MissionContext
-from app.executor.sensing import blocked_towards, new_obstacles
-from domain.knowledge import Goal
-from domain.reactive import ReactiveState, plan_reactive, reactive_domain, reactive_problem
-from domain.triggers import Initial, NoProgress, ObstacleSensed, ShapeChanged
+from app.executor.robot import ContactReading
+from domain.triggers import Contact, Initial, NoProgress, ShapeChanged, Trigger
 from primitives.shapes import SHAPES, classify_shape
-from sim.controls import FixedShape, PeriodicGait
-from sim.obstacles import Circle, point_segment_distance
+from sim.robot import DEFAULT_GEOMETRY, joint_positions
 
-CRUISE_SPEED = 0.06  # m/s (screw speeds stay within ±0.8 rad/s)
-WAYPOINT_REACH = 0.2  # metres: close enough to move on to the next waypoint
-ARRIVE_FRACTION = 0.4  # stop within this fraction of a goal's tolerance
+ARRIVE_FRACTION = 0.4  # a goal is marked reached within this fraction of its tolerance
 SHAPE_TOLERANCE = 0.1  # rad: sensed joints further than this from the commanded ones: deformed
-NO_PROGRESS_TIME = 40.0  # model seconds without 5 cm of progress
-PATH_CONFLICT = 1.2  # metres: a new obstacle this close to the path ahead breaks the plan
-REACTIVE_CLEARANCE = 0.6  # metres to keep sidestepping after the goal direction is clear
+NO_PROGRESS_TIME = 150.0  # model seconds without 5 cm of progress towards the next goal
+CONTACT_STANDOFF = 0.02  # metres beyond the touching unit's surface where the contact is marked
 
 
 class MissionBehaviour(py_trees.behaviour.Behaviour):
@@ -46,104 +42,61 @@ class MissionBehaviour(py_trees.behaviour.Behaviour):
         context: MissionContext = self.bb.context
         return context
 
+    def fail(self, trigger: Trigger, message: str) -> Status:
+        self.ctx.trigger = trigger
+        self.feedback_message = message
+        return Status.FAILURE
 
-def steer(ctx: MissionContext, tx: float, ty: float, speed: float) -> None:
-    """Command one control interval towards (tx, ty), grounded from the library."""
+
+def contact_point(ctx: MissionContext, contact: ContactReading) -> tuple[float, float]:
+    """Where the touched thing is: just outside the reported side of the reported part."""
     x, y, psi = ctx.pose
-    direction = math.atan2(ty - y, tx - x) - psi  # start frame of the current pose
-    shape = SHAPES[ctx.shape]
-    joints = np.asarray(ctx.knowledge.joints or shape.joints)
-    cmd = ctx.steering.command(ctx.shape, direction, speed, None if shape.periodic else joints)
-    if cmd.phases is not None:
-        ctx.command = PeriodicGait.of(cmd.theta, cmd.phases, t0=ctx.gait_t0)
+    pts = joint_positions(np.array([x, y, psi]), np.asarray(ctx.sensed_joints()))
+    g = DEFAULT_GEOMETRY
+    if contact.part == 0:
+        front, rear, radius = pts[0] + g.head_length * np.array([-math.cos(psi), -math.sin(psi)]), pts[0], g.head_radius
     else:
-        ctx.command = FixedShape.of(cmd.theta, cmd.joints if cmd.joints is not None else joints)
-    ctx.grounding = cmd.grounding()
+        front, rear, radius = pts[contact.part - 1], pts[contact.part], g.unit_radius
+    axis = front - rear
+    forward = axis / max(float(np.linalg.norm(axis)), 1e-9)
+    left = np.array([-forward[1], forward[0]])
+    middle = (front + rear) / 2
+    reach = radius + CONTACT_STANDOFF
+    where = {
+        "front": front + reach * forward,
+        "rear": rear - reach * forward,
+        "left": middle + reach * left,
+        "right": middle - reach * left,
+    }[contact.side]
+    return float(where[0]), float(where[1])
 
 
-def arrive_speed(distance: float) -> float:
-    return float(min(CRUISE_SPEED, max(distance, 0.005) / 2.0))
-
-
-class GoalReached(MissionBehaviour):
-    """SUCCESS once goal ``index`` (or every goal, for ``None``) is reached."""
-
-    def __init__(self, name: str, namespace: str, index: int | None) -> None:
-        super().__init__(name, namespace)
-        self.index = index
-
-    def update(self) -> Status:
-        ctx = self.ctx
-        x, y, _ = ctx.pose
-        wanted = range(len(ctx.goals)) if self.index is None else [self.index]
-        for i in wanted:
-            g = ctx.goals[i]
-            if not g.reached and g.distance(x, y) <= ARRIVE_FRACTION * g.tolerance:
-                ctx.mark_reached(i)
-        return Status.SUCCESS if all(ctx.goals[i].reached for i in wanted) else Status.FAILURE
-
-
-class HavePlan(MissionBehaviour):
-    def update(self) -> Status:
-        ctx = self.ctx
-        if ctx.trigger is not None or ctx.failure is not None:
-            return Status.FAILURE
-        if ctx.spec.planner.domain == "reactive":
-            return Status.SUCCESS if ctx.reactive_steps else Status.FAILURE
-        ok = (
-            ctx.plan is not None
-            and ctx.plan.result.solved
-            and ctx.action_index < len(ctx.plan.actions)
-        )
-        return Status.SUCCESS if ok else Status.FAILURE
-
-
-class ObstacleGuard(MissionBehaviour):
-    """New range hits join the knowledge; a hit on the path ahead breaks the plan."""
+class Sense(MissionBehaviour):
+    """The observation into the world model: range readings, the contact sensor, dropouts."""
 
     def update(self) -> Status:
         ctx = self.ctx
-        fresh = new_obstacles(ctx)
-        for ob in fresh:
-            ctx.knowledge = ctx.knowledge.with_sensed(ob)
+        obs = ctx.observation
+        for entry in obs.log:
+            if entry.get("kind") == "dropout" and entry.get("t") == ctx.t:
+                ctx.event("dropout", sensors=entry.get("sensors"), duration=entry.get("duration"))
+        fresh = ctx.world.integrate(r for _, r in obs.ranges)
         if fresh:
-            ctx.event("obstacle_sensed", points=[[round(o.x, 3), round(o.y, 3)] for o in fresh])
-        if ctx.spec.planner.domain == "reactive":
-            steps = ctx.reactive_steps
-            goal = ctx.goals[ctx.remaining_goals()[0]] if ctx.remaining_goals() else None
-            if steps and goal is not None and steps[0].operator == "PO1":
-                x, y, _ = ctx.pose
-                if blocked_towards(ctx, math.atan2(goal.y - y, goal.x - x)):
-                    ctx.trigger = ObstacleSensed(fresh[0] if fresh else _marker(ctx))
-                    return Status.FAILURE
-            return Status.SUCCESS
-        path = self._path_ahead(ctx)
-        for ob in fresh:
-            if (
-                len(path) > 1
-                and float(
-                    np.min(point_segment_distance(np.array([ob.x, ob.y]), path[:-1], path[1:]))
-                )
-                < PATH_CONFLICT
-            ):
-                ctx.trigger = ObstacleSensed(ob)
-                return Status.FAILURE
+            ctx.event("obstacle_sensed", cells=len(fresh))
+        if obs.contact is not None and not getattr(self, "_seen", None) == (obs.t, obs.contact):
+            self._seen = (obs.t, obs.contact)
+            ctx.contacts += 1
+            at = contact_point(ctx, obs.contact)
+            ctx.world.add_contact(at)
+            ctx.event("collision", part=obs.contact.part, side=obs.contact.side, at=list(at))
+            return self.fail(
+                Contact(obs.contact.part, obs.contact.side, at),
+                f"part {obs.contact.part} touched something on its {obs.contact.side} side",
+            )
+        if ctx.trigger is not None:
+            return Status.FAILURE
+        self.feedback_message = f"world model v{ctx.world.version}"
         return Status.SUCCESS
-
-    @staticmethod
-    def _path_ahead(ctx: MissionContext, steps: int = 8) -> np.ndarray:
-        x, y, _ = ctx.pose
-        points = [(x, y)]
-        if ctx.plan is not None:
-            for action in ctx.plan.actions[ctx.action_index : ctx.action_index + steps]:
-                if action.target is not None:
-                    points.append(action.target)
-        return np.array(points)
-
-
-def _marker(ctx: MissionContext) -> Circle:
-    x, y, _ = ctx.pose
-    return Circle(x, y, 0.01, name="reactive", known=False)
 
 
 class ShapeGuard(MissionBehaviour):
@@ -151,218 +104,139 @@ class ShapeGuard(MissionBehaviour):
 
     def update(self) -> Status:
         ctx = self.ctx
-        readings = ctx.readings
-        if readings is None or not np.all(np.isfinite(readings.joints)):
+        sensed = np.asarray(ctx.observation.joints, dtype=float)
+        if not np.all(np.isfinite(sensed)) or SHAPES[ctx.shape].periodic:
+            return Status.SUCCESS  # no reading (dropout), or the gait moves the joints on purpose
+        if float(np.max(np.abs(sensed - np.asarray(ctx.joints)))) <= SHAPE_TOLERANCE:
             return Status.SUCCESS
-        commanded = np.asarray(ctx.knowledge.joints or SHAPES[ctx.shape].joints)
-        if SHAPES[ctx.shape].periodic and not ctx.sim.deformed:
-            return Status.SUCCESS  # the gait moves the joints on purpose
-        if float(np.max(np.abs(readings.joints - commanded))) <= SHAPE_TOLERANCE:
-            return Status.SUCCESS
-        sensed = tuple(float(v) for v in readings.joints)
-        shape = classify_shape(sensed) or classify_shape(sensed, tolerance=0.4)
+        joints = (float(sensed[0]), float(sensed[1]), float(sensed[2]))
+        shape = classify_shape(joints) or classify_shape(joints, tolerance=0.4)
+        rounded = [round(v, 2) for v in joints]
         if shape is None:
-            ctx.failure = f"the body deformed into {np.round(sensed, 2).tolist()}, a shape the library has no primitives for"
+            ctx.failure = (
+                f"body shape {rounded} has no primitives in the library "
+                "(it matches no library shape)"
+            )
+            self.feedback_message = ctx.failure
             return Status.FAILURE
-        ctx.shape = shape
-        ctx.knowledge = replace(
-            ctx.knowledge, shape=shape, joints=(sensed[0], sensed[1], sensed[2])
-        )
-        ctx.event("deform", joints=[round(v, 3) for v in sensed], shape=shape)
-        ctx.trigger = ShapeChanged(shape, (sensed[0], sensed[1], sensed[2]))
-        return Status.FAILURE
+        # The body holds what it was forced into: compare against that from now on.
+        ctx.shape, ctx.joints, ctx.deformed = shape, joints, True
+        ctx.event("deform", joints=rounded, shape=shape)
+        return self.fail(ShapeChanged(shape, joints), f"deformed into {shape}")
 
 
-class ProgressGuard(MissionBehaviour):
-    """No 5 cm of progress towards the current target for a while, or a collision: replan."""
+class PlanGuard(MissionBehaviour):
+    """A plan exists and its next steps still hold in the world model."""
 
     def update(self) -> Status:
         ctx = self.ctx
-        target = current_target(ctx)
-        if target is None:
-            return Status.SUCCESS
-        x, y, _ = ctx.pose
-        d = math.hypot(target[0] - x, target[1] - y)
-        if d < ctx.progress_best - 0.05:
-            ctx.progress_best, ctx.progress_since = d, ctx.t
-        if ctx.sim.collisions > ctx.collisions_seen:
-            ctx.collisions_seen = ctx.sim.collisions
-            ctx.trigger = NoProgress(ctx.current_action, "collision")
+        if not ctx.have_plan or ctx.strategy is None:
+            self.feedback_message = "no plan"
             return Status.FAILURE
-        if ctx.t - ctx.progress_since > NO_PROGRESS_TIME:
-            ctx.trigger = NoProgress(ctx.current_action, f"no progress for {NO_PROGRESS_TIME:g} s")
-            return Status.FAILURE
+        trigger = ctx.strategy.broken(ctx.situation())
+        if trigger is not None:
+            return self.fail(trigger, f"plan broken: {trigger.kind}")
         return Status.SUCCESS
 
 
-def current_target(ctx: MissionContext) -> tuple[float, float] | None:
-    if ctx.spec.planner.domain == "reactive":
-        left = ctx.remaining_goals()
-        return (ctx.goals[left[0]].x, ctx.goals[left[0]].y) if left else None
-    if ctx.plan is None or ctx.action_index >= len(ctx.plan.actions):
-        return None
-    return ctx.plan.actions[ctx.action_index].target
-
-
-class FollowPlan(MissionBehaviour):
-    """Executes the plan: one control interval towards the current action's target per tick."""
+class Execute(MissionBehaviour):
+    """One tick of the plan: the strategy's command for the next control tick."""
 
     def update(self) -> Status:
         ctx = self.ctx
-        if ctx.spec.planner.domain == "reactive":
-            return self._reactive(ctx)
-        assert ctx.plan is not None
-        actions = ctx.plan.actions
-        x, y, _ = ctx.pose
-        while ctx.action_index < len(actions):
-            action = actions[ctx.action_index]
-            if action.name != "move":  # visit / visit-next: at the goal point
-                mission_goal = ctx.goal_map[action.goal or 0]
-                goal = ctx.goals[mission_goal]
-                if goal.reached or goal.distance(x, y) <= ARRIVE_FRACTION * goal.tolerance:
-                    ctx.mark_reached(mission_goal)
-                    self._advance(ctx)
-                    continue
-                ctx.current_action = action.pddl
-                steer(ctx, goal.x, goal.y, arrive_speed(goal.distance(x, y)))
-                return Status.RUNNING
-            assert action.target is not None
-            tx, ty = action.target
-            d = math.hypot(tx - x, ty - y)
-            last_before_visit = (
-                ctx.action_index + 1 < len(actions) and actions[ctx.action_index + 1].name != "move"
-            )
-            if not last_before_visit and d <= WAYPOINT_REACH:
-                self._advance(ctx)
-                continue
-            ctx.current_action = action.pddl
-            speed = arrive_speed(d) if last_before_visit else CRUISE_SPEED
-            if last_before_visit and d <= 0.02:
-                self._advance(ctx)
-                continue
-            steer(ctx, tx, ty, speed)
+        assert ctx.strategy is not None
+        outcome = ctx.strategy.command(ctx.situation())
+        if outcome is None:
+            if ctx.remaining_goals():
+                return self.fail(
+                    NoProgress(ctx.current_action, "plan finished before the goals were reached"),
+                    "plan finished early",
+                )
             return Status.RUNNING
-        if ctx.remaining_goals():
-            ctx.trigger = NoProgress(
-                ctx.current_action, "plan finished before the goals were reached"
-            )
-            return Status.FAILURE
+        if not hasattr(outcome, "control"):
+            assert not isinstance(outcome, type(None))
+            return self.fail(outcome, f"execution stopped: {outcome.kind}")  # type: ignore[arg-type]
+        ctx.command = outcome.control  # type: ignore[union-attr]
+        ctx.current_action = outcome.action  # type: ignore[union-attr]
+        ctx.grounding = outcome.grounding  # type: ignore[union-attr]
+        self.feedback_message = ctx.current_action
         return Status.RUNNING
 
-    @staticmethod
-    def _advance(ctx: MissionContext) -> None:
-        ctx.action_index += 1
-        ctx.progress_best, ctx.progress_since = math.inf, ctx.t
 
-    def _reactive(self, ctx: MissionContext) -> Status:
+class GoalsReached(MissionBehaviour):
+    """Marks goals the tracked point is on (the next one in given order, any in any order);
+    SUCCESS once all are reached. Also ends a mission that stopped making progress."""
+
+    def initialise(self) -> None:
+        self.best, self.since = math.inf, 0.0
+
+    def update(self) -> Status:
+        ctx = self.ctx
+        x, y, _ = ctx.pose
         left = ctx.remaining_goals()
-        if not left or not ctx.reactive_steps:
-            return Status.RUNNING
-        goal = ctx.goals[left[0]]
-        x, y, _ = ctx.pose
-        to_goal = math.atan2(goal.y - y, goal.x - x)
-        step = ctx.reactive_steps[0]
-        ctx.current_action = f"move({step.operator}: {step.relative_angle:+.0f} deg, {step.shape})"
-        if step.operator == "PO1":
-            steer(ctx, goal.x, goal.y, arrive_speed(goal.distance(x, y)))
-            return Status.RUNNING
-        side = to_goal + math.radians(step.relative_angle)
-        if blocked_towards(ctx, side):
-            ctx.trigger = ObstacleSensed(_marker(ctx))
+        candidates = left[:1] if ctx.spec.order == "given" else left
+        for i in candidates:
+            g = ctx.goals[i]
+            if g.distance(x, y) <= ARRIVE_FRACTION * g.tolerance:
+                ctx.mark_reached(i)
+                self.best, self.since = math.inf, ctx.t
+        left = ctx.remaining_goals()
+        if not left:
+            self.feedback_message = "all goals reached"
+            return Status.SUCCESS
+        d = min(ctx.goals[i].distance(x, y) for i in left)
+        if d < self.best - 0.05:
+            self.best, self.since = d, ctx.t
+        elif ctx.t - self.since > NO_PROGRESS_TIME:
+            ctx.failure = (
+                f"no progress: {NO_PROGRESS_TIME:g} model s without getting 5 cm closer to "
+                f"goal {left[0]}"
+            )
+            self.feedback_message = ctx.failure
             return Status.FAILURE
-        if blocked_towards(ctx, to_goal):
-            ctx.reactive_cleared = 0.0
-        else:
-            ctx.reactive_cleared += CRUISE_SPEED * ctx.interval
-            if ctx.reactive_cleared >= REACTIVE_CLEARANCE:
-                ctx.reactive_steps.pop(0)  # effect reached: obstacle(togoal) = F
-                ctx.reactive_cleared = 0.0
-                return self._reactive(ctx)
-        steer(ctx, x + math.cos(side), y + math.sin(side), CRUISE_SPEED)
-        return Status.RUNNING
+        self.feedback_message = f"{len(left)} goals left"
+        return Status.FAILURE
 
 
 class Replan(MissionBehaviour):
-    """Plans (first plan or after a trigger), records the replan, and fails with a reason
+    """Plans (first plan or after a trigger), records it, and fails with the strategy's reason
     when no plan exists or the replan budget is spent."""
 
     def update(self) -> Status:
         ctx = self.ctx
         if ctx.failure is not None:
             return Status.FAILURE
+        if ctx.strategy is None:
+            ctx.failure = "this mission has no planner"
+            return Status.FAILURE
         if sum(1 for r in ctx.replans if r.trigger != "initial") >= ctx.spec.max_replans:
-            ctx.failure = f"gave up after {ctx.spec.max_replans} replans"
+            ctx.failure = f"no progress: gave up after {ctx.spec.max_replans} replans"
             return Status.FAILURE
         trigger = ctx.trigger or Initial()
-        if ctx.spec.planner.domain == "reactive":
-            return self._reactive(ctx, trigger)
-        assert ctx.replanner is not None
-        left = ctx.remaining_goals()
-        x, y, psi = ctx.pose
-        goals = tuple(Goal(ctx.goals[i].x, ctx.goals[i].y, ctx.goals[i].tolerance) for i in left)
-        ctx.goal_map = left
-        ctx.knowledge = replace(ctx.knowledge.moved((x, y, psi)), goals=goals, shape=ctx.shape)
-        plan, record = ctx.replanner.plan(ctx.knowledge, trigger, at=round(ctx.t, 3))
-        self._record(ctx, record, *ctx.replanner.planner.export(), plan.pddl_plan)
-        if not plan.result.solved:
-            ctx.failure = f"planning {plan.result.status}: {plan.result.reason}"
-            return Status.FAILURE
-        ctx.plan, ctx.action_index = plan, 0
-        return Status.RUNNING
-
-    def _reactive(self, ctx: MissionContext, trigger: object) -> Status:
-        left = ctx.remaining_goals()
-        goal = ctx.goals[left[0]]
-        x, y, _ = ctx.pose
-        to_goal = math.atan2(goal.y - y, goal.x - x)
-        state = ReactiveState(
-            False,
-            blocked_towards(ctx, to_goal),
-            blocked_towards(ctx, to_goal + math.pi / 2),
-            blocked_towards(ctx, to_goal - math.pi / 2),
-        )
-        spec = ctx.spec.planner
-        result, steps = plan_reactive(
-            state,
-            ctx.shape,
-            spec.search,
-            "hff" if spec.heuristic == "roadmap" else spec.heuristic,
-            spec.time_limit,
-        )
-        from domain.triggers import ReplanRecord
-
-        kind = getattr(trigger, "kind", "initial")
-        detail = trigger.detail() if hasattr(trigger, "detail") else {}
-        old = [f"({s.operator.lower()} {s.shape})" for s in ctx.reactive_steps]
-        record = ReplanRecord(
-            kind, detail, round(ctx.t, 3), result.search_ms, old, result.plan, result.status
-        )
-        problem = reactive_problem(state, ctx.shape).text()
-        self._record(ctx, record, reactive_domain().text(), problem, result.plan)
-        if not result.solved:
-            ctx.failure = f"planning {result.status}: boxed in ({result.reason})"
-            return Status.FAILURE
-        ctx.reactive_steps, ctx.reactive_cleared = steps, 0.0
-        return Status.RUNNING
-
-    @staticmethod
-    def _record(
-        ctx: MissionContext, record: object, domain: str, problem: str, plan: list[str]
-    ) -> None:
-        from domain.triggers import ReplanRecord
-
-        assert isinstance(record, ReplanRecord)
-        ctx.replans.append(record)
+        out = ctx.strategy.replan(ctx.situation(), trigger)
+        ctx.replans.append(out.record)
         ctx.plan_version += 1
         ctx.pddl.append(
-            {"version": ctx.plan_version, "domain": domain, "problem": problem, "plan": plan}
+            {
+                "version": ctx.plan_version,
+                "domain": out.domain_pddl,
+                "problem": out.problem_pddl,
+                "plan": out.plan,
+            }
         )
         ctx.trigger = None
-        ctx.progress_best, ctx.progress_since = math.inf, ctx.t
-        if record.trigger != "initial":
+        if out.record.trigger != "initial":
             ctx.event(
                 "replan",
-                trigger=record.trigger,
-                latency_ms=round(record.latency_ms, 3),
+                trigger=out.record.trigger,
+                latency_ms=round(out.record.latency_ms, 3),
                 version=ctx.plan_version,
             )
+        if not out.ok:
+            ctx.have_plan = False
+            ctx.failure = out.reason
+            self.feedback_message = out.reason
+            return Status.FAILURE
+        ctx.have_plan = True
+        self.feedback_message = f"plan v{ctx.plan_version}: {len(out.plan)} steps"
+        return Status.RUNNING

@@ -1,4 +1,10 @@
-"""Manual chaining (paper §5.1, Figs. 9b, 11, 12): one behaviour per chain step."""
+"""Manual chaining (paper §5.1, Figs. 9b, 11, 12): one behaviour per chain step.
+
+A step runs a library primitive (or a bilinear interpolation of three, eqs. 16-18) until its
+condition holds: a point reached, a duration, or a range sensor below/above a threshold. After a
+deformation the sensed shape's primitives take over towards the same direction (Fig. 13b's
+IM4). A contact stops the chain with the part and side that touched.
+"""
 
 from __future__ import annotations
 
@@ -7,49 +13,69 @@ import math
 import numpy as np
 from py_trees.common import Status
 
-from app.executor.behaviours import CRUISE_SPEED, MissionBehaviour, steer
+from app.executor.behaviours import MissionBehaviour, ShapeGuard
 from app.executor.context import MissionContext
 from app.missions.spec import ChainStep
-from primitives.interpolation import interpolate_entries
+from primitives.interpolation import interpolate_entries, interpolate_in_shape
+from primitives.shapes import SHAPES
 from sim.controls import FixedShape, PeriodicGait
-from sim.rollout import RolloutConfig, rollout
+
+REACH_TIMEOUT = 400.0  # model seconds a `reach` step may take
+
+
+class ChainShapeGuard(ShapeGuard):
+    """In a manual chain a deformation only re-grounds the step: the guard never fails it."""
+
+    def update(self) -> Status:
+        status = super().update()
+        ctx = self.ctx
+        ctx.trigger = None
+        if status == Status.FAILURE and ctx.failure is None:
+            return Status.SUCCESS
+        return status
 
 
 class ChainStepBehaviour(MissionBehaviour):
-    """Runs one manual chain step (a library primitive or an interpolation) until its condition."""
+    """Runs one manual chain step until its condition."""
 
     def __init__(self, name: str, namespace: str, index: int) -> None:
         super().__init__(name, namespace)
         self.index = index
 
     def initialise(self) -> None:
-        ctx = self.ctx
-        ctx.chain_started = ctx.t
+        self.ctx.chain_started = self.ctx.t
 
     def update(self) -> Status:
         ctx = self.ctx
         step = ctx.spec.chain[self.index]
         until = step.until
         elapsed = ctx.t - ctx.chain_started
+        contact = ctx.observation.contact
+        if contact is not None and elapsed > 0:
+            ctx.contacts += 1
+            ctx.event("collision", part=contact.part, side=contact.side)
+            ctx.failure = (
+                f"chain step {self.index} stopped: part {contact.part} touched something on "
+                f"its {contact.side} side"
+            )
+            return Status.FAILURE
         x, y, _ = ctx.pose
-        if (
-            until.reach is not None
-            and math.hypot(until.reach.x - x, until.reach.y - y) <= until.reach.tolerance
-        ):
+        if until.reach is not None and math.hypot(until.reach.x - x, until.reach.y - y) <= until.reach.tolerance:
             return Status.SUCCESS
         if until.duration is not None and elapsed >= until.duration - 1e-9:
             return Status.SUCCESS
         if until.sensor is not None:
-            reading = ctx.readings.ranges.get(until.sensor, math.nan) if ctx.readings else math.nan
+            reading = ctx.observation.range_of(until.sensor)
             if (until.below is not None and reading < until.below) or (
                 until.above is not None and reading > until.above
             ):
                 return Status.SUCCESS
             if until.timeout is not None and elapsed >= until.timeout - 1e-9:
                 return Status.SUCCESS
-        if until.reach is not None and elapsed > 400.0:
+        if until.reach is not None and elapsed > REACH_TIMEOUT:
             ctx.failure = (
-                f"chain step {self.index} did not reach ({until.reach.x:g}, {until.reach.y:g})"
+                f"chain step {self.index} did not reach ({until.reach.x:g}, {until.reach.y:g}) "
+                f"within {REACH_TIMEOUT:g} model s"
             )
             return Status.FAILURE
         self._command(ctx, step)
@@ -58,30 +84,30 @@ class ChainStepBehaviour(MissionBehaviour):
     def _command(self, ctx: MissionContext, step: ChainStep) -> None:
         if step.primitive is not None:
             entry = ctx.library.get(step.primitive)
-            ctx.current_action = f"{entry.name} (chain step {self.index})"
-            ctx.grounding = {"method": "library", "primitives": [entry.id]}
             if entry.periodic:
-                ctx.command = PeriodicGait.of(
-                    entry.theta, entry.phases or (0, 0, 0), t0=ctx.chain_started
-                )
+                ctx.current_action = f"{entry.name} (chain step {self.index})"
+                ctx.grounding = {"method": "library", "primitives": [entry.id]}
+                ctx.command = PeriodicGait.of(entry.theta, entry.phases or (0, 0, 0), t0=ctx.chain_started)
                 return
             theta, joints = np.array(entry.theta), np.array(entry.joints or (0, 0, 0))
+            goal, sources, method = entry.goal, [entry.id], "library"
+            shape = entry.shape
         else:
             assert step.interpolate is not None
             entries = [ctx.library.get(n) for n in step.interpolate.from_]
             made = interpolate_entries(entries, step.interpolate.goal)
             theta, joints = made.theta, made.joints
-            ctx.current_action = f"IM({', '.join(made.sources)}) -> {step.interpolate.goal} (chain step {self.index})"
-            ctx.grounding = {"method": "interpolated", "primitives": [e.id for e in entries]}
-        if ctx.sim.deformed:  # the body cannot hold these joints: go the same way in the new shape
-            x, y, psi = ctx.pose
-            heading = psi + _first_motion(theta, joints)
-            steer(ctx, x + math.cos(heading), y + math.sin(heading), CRUISE_SPEED)
-            return
+            goal, sources, method = step.interpolate.goal, [e.id for e in entries], "interpolated"
+            shape = entries[0].shape
+        if not ctx.deformed:
+            ctx.shape = shape
+        elif ctx.shape != shape and not SHAPES[ctx.shape].periodic:
+            # The body cannot hold these joints: the sensed shape's primitives, same direction.
+            scale = 2.0 / max(math.hypot(*goal), 1e-9)
+            made = interpolate_in_shape(ctx.library, (goal[0] * scale, goal[1] * scale), ctx.shape)
+            theta, joints = made.theta, made.joints
+            sources, method = list(made.sources), "interpolated"
+        ctx.current_action = f"{'/'.join(sources)} (chain step {self.index})"
+        ctx.grounding = {"method": method, "primitives": sources}
+        ctx.joints = (float(joints[0]), float(joints[1]), float(joints[2]))
         ctx.command = FixedShape.of(theta, joints)
-
-
-def _first_motion(theta: np.ndarray, joints: np.ndarray) -> float:
-    """Direction (start frame) of a primitive's first second of motion."""
-    end = rollout(FixedShape.of(theta, joints), config=RolloutConfig(1.0, 1.0)).end[0]
-    return math.atan2(end[1], end[0])

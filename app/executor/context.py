@@ -1,4 +1,9 @@
-"""Everything one running mission shares between its behaviours, and its result."""
+"""Everything one running mission shares between its behaviours, and its result.
+
+The context holds what the robot reports (the latest ``Observation`` through the Robot port),
+the world model built from it, the planning strategy and the mission's log. Nothing here is
+simulator state.
+"""
 
 from __future__ import annotations
 
@@ -6,17 +11,14 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from app.executor.robot import Observation, Robot
 from app.missions.spec import MissionSpec
-from domain.knowledge import WorldKnowledge
-from domain.navigation import NavigationPlan
-from domain.reactive import ReactiveStep
-from domain.replanner import Replanner
+from domain.lattice_planner import LegGoal
+from domain.strategy import PlanningStrategy, Situation
 from domain.triggers import ReplanRecord, Trigger
+from domain.worldmodel import WorldModel
 from primitives.library import Library
-from primitives.steering import Steering
 from sim.controls import Control
-from sim.sensors import SensorReadings
-from sim.simulator import Simulator
 
 
 @dataclass
@@ -44,46 +46,46 @@ class GoalState:
 
 @dataclass
 class MissionContext:
-    """The blackboard's one entry per mission: world, knowledge, plan and the log."""
+    """The blackboard's one entry per mission."""
 
     spec: MissionSpec
     library: Library
-    steering: Steering
-    sim: Simulator
-    knowledge: WorldKnowledge
+    robot: Robot
+    world: WorldModel
+    strategy: PlanningStrategy | None
+    observation: Observation
     goals: list[GoalState]
-    replanner: Replanner | None = None
-    plan: NavigationPlan | None = None
-    plan_version: int = 0
-    action_index: int = 0
-    reactive_steps: list[ReactiveStep] = field(default_factory=list)
-    reactive_cleared: float = 0.0  # metres travelled with the goal direction clear (PO2/PO3)
+    shape: str = "straight"  # the library shape the body is classified as
+    joints: tuple[float, float, float] = (0.0, 0.0, 0.0)  # commanded joint angles
+    deformed: bool = False  # the joint sensors once disagreed with the command for good
     trigger: Trigger | None = None
     replans: list[ReplanRecord] = field(default_factory=list)
-    shape: str = "straight"  # commanded body shape (a library shape)
-    readings: SensorReadings | None = None
+    plan_version: int = 0
+    have_plan: bool = False
     command: Control | None = None
     current_action: str = ""
     grounding: dict[str, Any] = field(default_factory=dict)
     failure: str | None = None
     events: list[dict[str, Any]] = field(default_factory=list)
     pddl: list[dict[str, Any]] = field(default_factory=list)
-    progress_best: float = math.inf
-    progress_since: float = 0.0
-    goal_map: list[int] = field(default_factory=list)  # planner goal j -> mission goal index
-    collisions_seen: int = 0
-    gait_t0: float = 0.0  # the periodic gait's phase origin (continuous joints across intervals)
-    interval: float = 1.0  # model seconds per control interval
+    contacts: int = 0
+    interval: float = 0.25  # model seconds per control tick
     chain_started: float = 0.0
+    chain_entry_pose: tuple[float, float, float] | None = None
 
     @property
     def t(self) -> float:
-        return self.sim.t
+        return self.observation.t
 
     @property
     def pose(self) -> tuple[float, float, float]:
-        x, y, psi = (float(v) for v in self.sim.pose)
-        return (x, y, psi)
+        return self.observation.pose
+
+    def sensed_joints(self) -> tuple[float, float, float]:
+        j = self.observation.joints
+        if all(math.isfinite(v) for v in j):
+            return j
+        return self.joints  # joint sensors dropped out: the commanded shape is the best guess
 
     def event(self, kind: str, **detail: Any) -> None:
         self.events.append({"t": round(self.t, 3), "kind": kind, **detail})
@@ -98,6 +100,22 @@ class MissionContext:
         x, y, _ = self.pose
         goal.reached, goal.error, goal.reached_at = True, goal.distance(x, y), round(self.t, 3)
         self.event("goal_reached", goal=index, error=round(goal.error, 4))
+
+    def situation(self) -> Situation:
+        left = self.remaining_goals()
+        goals = tuple(
+            LegGoal(i, self.goals[i].x, self.goals[i].y, self.goals[i].tolerance) for i in left
+        )
+        return Situation(
+            t=self.t,
+            pose=self.pose,
+            joints=self.sensed_joints(),
+            shape=self.shape,
+            goals=goals,
+            ordered=self.spec.order == "given",
+            world=self.world,
+            ranges=self.observation.ranges,
+        )
 
 
 @dataclass

@@ -1,8 +1,8 @@
-"""Runs one mission: builds its world, knowledge and tree, and ticks it in model time.
+"""Runs one mission: builds its robot port, world model, strategy and tree; ticks in model time.
 
 Our own loop ticks the tree (no ``tick_tock``, no wall-clock timeouts): one tick decides the
-command for one control interval, then the simulator steps through it. Deterministic for a
-mission and seed. ``step()`` advances one interval so a service can pace and stream it.
+command for one control tick, then the robot runs it through the Robot port. Deterministic for
+a mission and seed. ``step()`` advances one tick so a service can pace and stream it.
 """
 
 from __future__ import annotations
@@ -19,23 +19,22 @@ import py_trees
 from py_trees.common import Access, Status
 
 from app.executor.context import GoalState, MissionContext, MissionResult
+from app.executor.robot import Robot, sim_robot
 from app.executor.tree import build_tree, snapshot
 from app.missions.spec import MissionSpec
-from domain.knowledge import Goal, WorldKnowledge
-from domain.navigation import NavigationPlanner
-from domain.replanner import Replanner
+from domain.lattice import LatticeSettings
+from domain.lattice_planner import LatticePlanner
+from domain.navigation_strategy import NavigationStrategy
+from domain.reactive_strategy import ReactiveStrategy
+from domain.strategy import PlanningStrategy
+from domain.worldmodel import WorldModel
+from primitives.grounding import TICK
 from primitives.library import Library
 from primitives.shapes import classify_shape
 from primitives.steering import Steering
 from sim.controls import FixedShape
-from sim.events import Deformation
-from sim.sensors import RangeSensor, SensorSuite, range_ring
-from sim.simulator import Simulator
-from sim.world import World
 
-CONTROL_INTERVAL = 1.0  # model seconds per tick
-SIM_DT = 0.5  # model seconds per simulator step
-MAX_RETICKS = 4  # ticks within one interval while the tree only plans
+MAX_RETICKS = 4  # ticks within one control tick while the tree only plans
 TRAJECTORY_POINTS = 2000
 _ids = itertools.count()
 
@@ -52,6 +51,22 @@ class MissionError(ValueError):
     """A mission that cannot start (e.g. its start pose overlaps an obstacle)."""
 
 
+def make_strategy(
+    spec: MissionSpec, library: Library, steering: Steering | None
+) -> PlanningStrategy | None:
+    """The planning strategy the mission asks for (none for a manual chain)."""
+    if not spec.goals:
+        return None
+    p = spec.planner
+    if p.domain == "reactive":
+        heuristic = "hff" if p.heuristic in ("roadmap", "lattice") else p.heuristic
+        return ReactiveStrategy(steering or Steering(library), p.search, heuristic, p.time_limit)
+    heuristic = "lattice" if p.heuristic in ("roadmap", "lattice") else p.heuristic
+    settings = LatticeSettings(margin=p.margin)
+    planner = LatticePlanner(spec.bounds.bounds(), settings, p.search, heuristic, p.time_limit)
+    return NavigationStrategy(library, planner)
+
+
 class MissionRunner:
     def __init__(
         self,
@@ -61,6 +76,7 @@ class MissionRunner:
         mission_id: str | None = None,
         on_tick: TickHook | None = None,
         cancel: CancelFlag | None = None,
+        robot: Robot | None = None,
     ) -> None:
         self.spec = spec
         self.on_tick = on_tick
@@ -69,7 +85,11 @@ class MissionRunner:
         self.started = time.perf_counter()
         self.status: str = "executing"
         self.reason = ""
-        self.ctx = self._context(spec, library, steering or Steering(library))
+        try:
+            self.robot = robot or sim_robot(spec)
+        except ValueError as exc:
+            raise MissionError(str(exc)) from exc
+        self.ctx = self._context(spec, library, self.robot, steering)
         self._writer = py_trees.blackboard.Client(name="runner", namespace=self.namespace)
         self._writer.register_key("context", access=Access.WRITE)
         self._writer.context = self.ctx
@@ -77,53 +97,30 @@ class MissionRunner:
         self.tree.setup_with_descendants()
 
     @staticmethod
-    def _context(spec: MissionSpec, library: Library, steering: Steering) -> MissionContext:
-        obstacles = tuple(spec.world_obstacles())
-        ring = (
-            range_ring(spec.sensors.ring, spec.sensors.range, spec.sensors.noise)
-            if spec.sensors.ring
-            else ()
-        )
-        ir = RangeSensor("ir", 0.0, spec.sensors.ir_range, math.radians(10), 3, spec.sensors.noise)
-        sensors = SensorSuite(range_sensors=(ir, *ring))
-        events = tuple(Deformation(e.t, e.joints) for e in spec.events)
-        world = World(spec.bounds.bounds(), obstacles)
-        try:
-            sim = Simulator(world, sensors=sensors, events=events, dt=SIM_DT)
-            sim.reset(
-                (spec.start.x, spec.start.y, spec.start.psi), spec.start_joints(), seed=spec.seed
-            )
-        except ValueError as exc:
-            raise MissionError(str(exc)) from exc
+    def _context(
+        spec: MissionSpec, library: Library, robot: Robot, steering: Steering | None
+    ) -> MissionContext:
         joints = spec.start_joints()
         shape = classify_shape(joints) if spec.shape_name() == "custom" else spec.shape_name()
         if shape is None:
             raise MissionError(f"shape: joints {list(joints)} match no library shape")
-        known = tuple(o for o in obstacles if o.known)
-        goals = [GoalState(g.x, g.y, g.tolerance) for g in spec.goals]
-        knowledge = WorldKnowledge(
-            (spec.start.x, spec.start.y, spec.start.psi),
-            shape,
-            tuple(Goal(g.x, g.y, g.tolerance) for g in spec.goals),
-            spec.order,
-            known,
-            (),
-            spec.bounds.bounds(),
-            joints,
-        )
+        known = [o for o in spec.world_obstacles() if o.known]
+        world = WorldModel(spec.bounds.bounds(), known)
+        observation = robot.observe()
         ctx = MissionContext(
-            spec, library, steering, sim, knowledge, goals, shape=shape, interval=CONTROL_INTERVAL
+            spec=spec,
+            library=library,
+            robot=robot,
+            world=world,
+            strategy=make_strategy(spec, library, steering),
+            observation=observation,
+            goals=[GoalState(g.x, g.y, g.tolerance) for g in spec.goals],
+            shape=shape,
+            joints=joints,
+            interval=TICK,
         )
-        ctx.readings = sim.read()
-        if spec.planner.domain == "navigation" and spec.goals:
-            p = spec.planner
-            inflation = sim.geometry.unit_radius + p.margin
-            planner = NavigationPlanner(
-                knowledge, library, p.spacing, inflation, p.search, p.heuristic, p.time_limit
-            )
-            ctx.replanner = Replanner(planner)
-        for event in sim.initial_events:
-            ctx.event(event.kind, **event.detail)
+        for entry in observation.log:
+            ctx.event(str(entry.get("kind")), **{k: v for k, v in entry.items() if k not in ("t", "kind")})
         return ctx
 
     # -- running ------------------------------------------------------------------------------
@@ -132,7 +129,7 @@ class MissionRunner:
         return self.status != "executing"
 
     def step(self) -> bool:
-        """Tick the tree and advance the simulator by one control interval; True when done."""
+        """Tick the tree and run its command for one control tick; True when done."""
         if self.done:
             return True
         ctx = self.ctx
@@ -149,17 +146,15 @@ class MissionRunner:
             )
         if self.tree.status == Status.FAILURE:
             return self._finish("failed", ctx.failure or "the behaviour tree failed")
-        command = ctx.command or FixedShape.of(np.zeros(4), ctx.sim.joints)  # hold still
-        for _ in range(round(CONTROL_INTERVAL / SIM_DT)):
-            result = ctx.sim.step(command)
-            for event in result.events:
-                ctx.event(event.kind, **event.detail)
-        ctx.readings = result.readings
+        command = ctx.command or FixedShape.of(np.zeros(4), ctx.joints)  # hold still
+        ctx.observation = self.robot.act(command, TICK)
+        for entry in ctx.observation.log:
+            ctx.event(str(entry.get("kind")), **{k: v for k, v in entry.items() if k not in ("t", "kind")})
         if self.on_tick is not None:
             self.on_tick(ctx, self.snapshot())
-        if ctx.t >= self.spec.time_limit:
+        if ctx.t >= self.spec.time_limit - 1e-9:
             return self._finish(
-                "failed", f"time limit of {self.spec.time_limit:g} model seconds reached"
+                "failed", f"time limit: {self.spec.time_limit:g} model seconds reached"
             )
         return False
 
@@ -179,16 +174,19 @@ class MissionRunner:
         x, y, psi = ctx.pose
         return {
             "t": round(ctx.t, 3),
-            "pose": {"x": x, "y": y, "psi": psi, "joints": [float(v) for v in ctx.sim.joints]},
+            "pose": {"x": x, "y": y, "psi": psi, "joints": list(ctx.sensed_joints())},
             "action": ctx.current_action,
             "grounding": ctx.grounding,
-            "sensors": ctx.readings.to_dict() if ctx.readings else {},
+            "sensors": ctx.observation.sensors_dict(),
             "tree": snapshot(self.tree),
             "shape": ctx.shape,
         }
 
+    def plan_actions(self) -> list[dict[str, Any]]:
+        return self.ctx.strategy.actions() if self.ctx.strategy is not None else []
+
     def trajectory(self, limit: int = TRAJECTORY_POINTS) -> list[list[float]]:
-        rows = self.ctx.sim.trajectory
+        rows = self.robot.trajectory()
         stride = max(1, math.ceil(len(rows) / limit))
         picked = rows[::stride]
         if picked[-1] is not rows[-1]:
@@ -202,7 +200,7 @@ class MissionRunner:
             status=self.status,
             reason=self.reason,
             goals=ctx.goals,
-            collisions=ctx.sim.collisions,
+            collisions=ctx.contacts,
             replans=[r for r in ctx.replans if r.trigger != "initial"],
             model_time=round(ctx.t, 3),
             wall_time=time.perf_counter() - self.started,

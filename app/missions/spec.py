@@ -184,6 +184,8 @@ class MissionSpec(Strict):
     def _consistent(self) -> MissionSpec:
         if not self.goals and not self.chain:
             raise ValueError("goals: give at least one goal, or a chain of primitives")
+        if self.goals and self.chain:
+            raise ValueError("chain: give goals or a chain of primitives, not both")
         if isinstance(self.shape, str) and self.shape not in SHAPES:
             raise ValueError(f"shape: unknown {self.shape!r}; known: {', '.join(SHAPES)}")
         bounds = self.bounds.bounds()

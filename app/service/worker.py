@@ -21,7 +21,6 @@ from app.executor.runner import MissionError, MissionRunner
 from app.missions.spec import MissionSpec
 from primitives.library import Library
 from primitives.steering import Steering
-from sim.obstacles import Circle
 
 WORKER_NICENESS = 10
 STATE_SAVE_SECONDS = 1.0  # wall seconds between state writes of a running mission
@@ -34,43 +33,20 @@ def library_and_steering(path: str) -> tuple[Library, Steering]:
     return library, Steering(library)
 
 
-def reactive_actions(plan: list[str], goal: tuple[float, float] | None) -> list[dict[str, Any]]:
-    """The reactive plan's move(angle, shape) actions, as the plan resource lists them."""
-    out = []
-    for text in plan:
-        name, shape = text.strip("()").split()
-        angle = {"po1": 0.0, "po2": 90.0, "po3": -90.0}[name]
-        out.append(
-            {
-                "name": name,
-                "args": [shape],
-                "heading": angle,
-                "shape": shape,
-                "target": None if goal is None else {"x": goal[0], "y": goal[1]},
-                "grounding": {
-                    "method": "steering",
-                    "primitives": [],
-                    "relative_to": "goal direction",
-                },
-            }
-        )
-    return out
-
-
 def mission_state(runner: MissionRunner) -> dict[str, Any]:
     ctx = runner.ctx
     x, y, psi = ctx.pose
+    world = ctx.world.to_dict()
     return {
         "goals": [g.to_dict() for g in ctx.goals],
-        "pose": {"x": x, "y": y, "psi": psi, "joints": [float(j) for j in ctx.sim.joints]},
+        "pose": {"x": x, "y": y, "psi": psi, "joints": list(ctx.sensed_joints())},
         "model_time": round(ctx.t, 3),
-        "collisions": ctx.sim.collisions,
+        "collisions": ctx.contacts,
         "replans": sum(1 for r in ctx.replans if r.trigger != "initial"),
         "shape": ctx.shape,
         "action": ctx.current_action,
-        "sensed": [
-            [round(o.x, 3), round(o.y, 3)] for o in ctx.knowledge.sensed if isinstance(o, Circle)
-        ],
+        "sensed": world.get("sensed", []),
+        "contacts": world.get("contact", []),
     }
 
 
@@ -80,14 +56,7 @@ def plan_messages(runner: MissionRunner, seen: int) -> list[Message]:
     out: list[Message] = []
     domain = ctx.spec.planner.domain
     for entry, record in zip(ctx.pddl[seen:], ctx.replans[seen:], strict=False):
-        if domain == "navigation" and ctx.plan is not None and entry["version"] == ctx.plan_version:
-            actions = [a.to_dict() for a in ctx.plan.actions]
-        elif domain == "reactive":
-            left = ctx.remaining_goals()
-            goal = (ctx.goals[left[0]].x, ctx.goals[left[0]].y) if left else None
-            actions = reactive_actions(entry["plan"], goal)
-        else:
-            actions = []
+        actions = runner.plan_actions() if entry["version"] == ctx.plan_version else []
         out.append(
             (
                 "plan",

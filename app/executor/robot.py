@@ -1,0 +1,198 @@
+"""The Robot port: what the executor may know of a robot (observations) and do (controls).
+
+The executor talks to a robot only through ``Robot``: an ``Observation`` in (model time, the
+pose as tracked, range readings with each sensor's pose, range and cone, joint-angle readings,
+a contact signal naming the unit and side that touched), a control out for a duration.
+``SimRobot`` wraps ``sim.Simulator`` and is the only code of ``app/`` that touches it: the
+executor never reads simulator truth (which obstacle a ray hit, whether a deformation was
+forced, the true joint angles).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+import numpy as np
+
+from app.missions.spec import MissionSpec
+from domain.worldmodel import RangeObservation
+from sim.controls import Control
+from sim.events import Deformation, Event, SensorDropout
+from sim.robot import DEFAULT_GEOMETRY, RobotGeometry, head_tip
+from sim.sensors import RangeSensor, SensorReadings, SensorSuite, range_ring
+from sim.simulator import Simulator
+from sim.world import World
+
+Pose = tuple[float, float, float]
+Joints = tuple[float, float, float]
+
+
+@dataclass(frozen=True)
+class ContactReading:
+    """A bumper / stall-current signal: which part touched (0 = head, 1..4 = units), which side
+    of it (``front``, ``rear``, ``left``, ``right``, in the part's own frame)."""
+
+    part: int
+    side: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"part": self.part, "side": self.side}
+
+
+@dataclass(frozen=True)
+class Observation:
+    """Everything the robot reports after a control interval."""
+
+    t: float  # model seconds
+    pose: Pose  # tracked point (x, y) and heading ψ, as tracked
+    joints: Joints  # joint-angle sensors (NaN while they drop out)
+    ranges: tuple[tuple[str, RangeObservation], ...]  # (sensor name, reading with its geometry)
+    contact: ContactReading | None = None
+    log: tuple[dict[str, Any], ...] = field(default=())  # what the robot itself logs (dropouts)
+
+    def range_of(self, name: str) -> float:
+        """The named sensor's distance (NaN if it has no reading or does not exist)."""
+        return next((r.distance for n, r in self.ranges if n == name), math.nan)
+
+    def sensors_dict(self) -> dict[str, Any]:
+        """Readings as JSON-ready data (for state frames)."""
+        ranges = {
+            n: None if math.isnan(r.distance) else round(r.distance, 4) for n, r in self.ranges
+        }
+        joints = [None if math.isnan(v) else round(v, 4) for v in self.joints]
+        return {"ranges": ranges, "joints": joints}
+
+
+class Robot(Protocol):
+    """A robot as the executor sees it."""
+
+    @property
+    def geometry(self) -> RobotGeometry: ...
+
+    def observe(self) -> Observation:
+        """The latest observation (no time passes)."""
+        ...
+
+    def act(self, control: Control, duration: float) -> Observation:
+        """Apply ``control`` for ``duration`` model seconds (the robot stops early when it
+        touches something) and report what it observes at the end."""
+        ...
+
+    def trajectory(self) -> list[list[float]]:
+        """Rows ``[t, x, y, ψ, φ1, φ2, φ3]`` as tracked so far."""
+        ...
+
+
+class SimRobot:
+    """The simulated robot behind the Robot port."""
+
+    def __init__(self, simulator: Simulator) -> None:
+        self.sim = simulator
+        self._contact: ContactReading | None = None
+        self._log: list[dict[str, Any]] = [
+            {"t": e.t, "kind": e.kind, **e.detail} for e in simulator.initial_events
+        ]
+        self._last = self._observation(simulator.read())
+
+    @property
+    def geometry(self) -> RobotGeometry:
+        return self.sim.geometry
+
+    @property
+    def contacts(self) -> int:
+        """How often the body touched something (the contact sensor's count)."""
+        return self.sim.collisions
+
+    def observe(self) -> Observation:
+        return self._last
+
+    def act(self, control: Control, duration: float) -> Observation:
+        steps = max(1, round(duration / self.sim.dt))
+        readings = None
+        self._contact = None
+        for _ in range(steps):
+            result = self.sim.step(control)
+            readings = result.readings
+            for event in result.events:
+                if event.kind == "dropout":  # the robot knows its sensors went quiet
+                    self._log.append({"t": event.t, "kind": "dropout", **event.detail})
+            if result.contact is not None:
+                self._contact = ContactReading(result.contact.part, result.contact.side)
+                break  # a bumper stops the motion: the rest of the interval is not driven
+        assert readings is not None
+        self._last = self._observation(readings)
+        return self._last
+
+    def trajectory(self) -> list[list[float]]:
+        return self.sim.trajectory
+
+    def _observation(self, readings: SensorReadings) -> Observation:
+        pose = readings.pose
+        origin = head_tip(pose, self.sim.geometry)
+        forward = float(pose[2]) + math.pi
+        ranges = []
+        for sensor in self.sim.sensors.range_sensors:
+            d = readings.ranges[sensor.name]
+            hit = not math.isnan(d) and d < sensor.max_range
+            obs = RangeObservation(
+                origin=(float(origin[0]), float(origin[1])),
+                angle=forward + sensor.angle,
+                fov=sensor.fov,
+                max_range=sensor.max_range,
+                distance=d,
+                hit=hit,
+                noise_std=sensor.noise_std,
+            )
+            ranges.append((sensor.name, obs))
+        log, self._log = tuple(self._log), []
+        joints = readings.joints
+        return Observation(
+            t=round(float(self.sim.t), 9),
+            pose=(float(pose[0]), float(pose[1]), float(pose[2])),
+            joints=(float(joints[0]), float(joints[1]), float(joints[2])),
+            ranges=tuple(ranges),
+            contact=self._contact,
+            log=log,
+        )
+
+
+def held_joints(observation: Observation, fallback: Joints) -> Joints:
+    """The sensed joints, or ``fallback`` while the joint sensors drop out."""
+    j = np.asarray(observation.joints, dtype=float)
+    if not np.all(np.isfinite(j)):
+        return fallback
+    return (float(j[0]), float(j[1]), float(j[2]))
+
+
+__all__ = [
+    "DEFAULT_GEOMETRY",
+    "ContactReading",
+    "Observation",
+    "Robot",
+    "SimRobot",
+    "held_joints",
+    "sim_robot",
+]
+
+
+def sim_robot(spec: MissionSpec, dt: float = 0.25) -> SimRobot:
+    """The simulated robot of a mission: its world (every obstacle, hidden ones included),
+    its sensors (forward IR + ring, seeded noise), deformation and dropout events."""
+    obstacles = tuple(spec.world_obstacles())
+    s = spec.sensors
+    ring = range_ring(s.ring, s.range, s.noise) if s.ring else ()
+    ir = RangeSensor("ir", 0.0, s.ir_range, math.radians(10), 3, s.noise)
+    events: list[Event] = []
+    for e in spec.events:
+        if e.type == "deform":
+            events.append(Deformation(e.t, e.joints))
+        else:
+            events.append(SensorDropout(e.t, e.duration, tuple(e.sensors)))
+    world = World(spec.bounds.bounds(), obstacles)
+    simulator = Simulator(
+        world, sensors=SensorSuite(range_sensors=(ir, *ring)), events=tuple(events), dt=dt
+    )
+    simulator.reset((spec.start.x, spec.start.y, spec.start.psi), spec.start_joints(), seed=spec.seed)
+    return SimRobot(simulator)

@@ -1,0 +1,221 @@
+"""The state lattice: (centroid cell, orientation, shape) states and library primitives as motions.
+
+A state is the cell of the body centroid (the reference point: every shape turns in place
+about it) and one of ``orientations`` headings. Its representative pose puts the centroid at
+the cell centre with the bin's heading exactly. An action applies one lattice primitive of the
+library from that pose: the primitive's recorded end pose (where it really lands, from the
+library) gives the next pose, snapped to its state. A motion is valid where the footprint swept
+along the primitive's recorded poses keeps ``margin`` clear of everything in the world model.
+
+For each orientation the world offsets of every motion (next cell, swept sample points with the
+clearance each needs) are computed once, so checking the successors of a state is one
+vectorised clearance lookup.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from primitives.library import Library, Primitive
+from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry, centroid_offset, rotate
+from sim.world import Bounds, footprint
+
+SAMPLE_SPACING = 0.04  # metres between checked points along a capsule and between swept poses
+Key = tuple[int, int, int]  # centroid cell (i, j) and orientation bin k
+
+
+@dataclass(frozen=True)
+class LatticeSettings:
+    """Resolution of the lattice and the clearance kept around the swept body."""
+
+    resolution: float = 0.05  # metres per centroid cell
+    orientations: int = 64  # headings per turn (5.625° apart)
+    margin: float = 0.01  # metres the swept footprint keeps from anything occupied
+    start_margin: float = 0.0  # margin for motions out of the start (it may touch a contact)
+
+    def __post_init__(self) -> None:
+        if not (0.01 <= self.resolution <= 0.5):
+            raise ValueError("resolution: must lie within [0.01, 0.5] m")
+        if self.orientations < 16 or self.orientations % 4:
+            raise ValueError("orientations: need at least 16, a multiple of 4")
+        if not (0 <= self.margin <= 0.2 and 0 <= self.start_margin <= self.margin):
+            raise ValueError("margin: must lie within [0, 0.2] m and start_margin <= margin")
+
+    @property
+    def step(self) -> float:
+        return 2 * math.pi / self.orientations
+
+
+@dataclass(frozen=True)
+class Motion:
+    """One lattice primitive of the library as the planner uses it."""
+
+    primitive: str  # library id
+    end: Array  # tracked-point end pose (dx, dy, dψ) in the start frame, as recorded
+    swept: Array  # tracked-point poses along the motion, start frame, [S, 3]
+    duration: float  # model seconds
+
+    @classmethod
+    def of(cls, entry: Primitive) -> Motion:
+        assert entry.end_pose is not None
+        return cls(
+            entry.id,
+            np.asarray(entry.end_pose, dtype=float),
+            np.asarray(entry.swept or [entry.end_pose], dtype=float),
+            float(entry.rollout.duration),
+        )
+
+
+def compose(pose: Array, delta: Array) -> Array:
+    """``pose ∘ delta`` for poses ``[..., 3]``: ``delta`` expressed in ``pose``'s frame."""
+    xy = pose[..., :2] + rotate(delta[..., :2], pose[..., 2])
+    return np.concatenate([xy, (pose[..., 2] + delta[..., 2])[..., None]], axis=-1)
+
+
+def relative(pose: Array, target: Array) -> Array:
+    """``pose⁻¹ ∘ target``: where ``target`` lies in the frame of ``pose`` (both ``[3]``)."""
+    xy = rotate(target[:2] - pose[:2], np.array(-pose[2]))
+    turn = math.remainder(float(target[2] - pose[2]), 2 * math.pi)
+    return np.array([xy[0], xy[1], turn])
+
+
+def _capsule_samples(starts: Array, ends: Array, radii: Array) -> tuple[Array, Array]:
+    """Points along capsule axes ``[..., C, 2]`` no further apart than SAMPLE_SPACING, and
+    the clearance each needs (its capsule's radius); flattened to ``[N, 2]`` and ``[N]``."""
+    length = float(np.max(np.linalg.norm(ends - starts, axis=-1)))
+    n = max(2, math.ceil(length / SAMPLE_SPACING) + 1)
+    s = np.linspace(0.0, 1.0, n)[:, None, None]  # [n, 1, 1]
+    pts = starts[..., None, :, :] + s * (ends - starts)[..., None, :, :]  # [..., n, C, 2]
+    need = np.broadcast_to(radii, pts.shape[:-1])
+    return pts.reshape(-1, 2), need.reshape(-1)
+
+
+def _thin(poses: Array, reach: float) -> Array:
+    """Swept poses thinned so no body point moves more than SAMPLE_SPACING between them."""
+    keep = [poses[0]]
+    for pose in poses[1:]:
+        d = np.abs(pose - keep[-1])
+        if math.hypot(d[0], d[1]) + reach * d[2] > SAMPLE_SPACING:
+            keep.append(pose)
+    if not np.array_equal(keep[-1], poses[-1]):
+        keep.append(poses[-1])
+    return np.array(keep)
+
+
+@dataclass
+class MotionTable:
+    """The motions of one shape, precomputed for every orientation bin."""
+
+    shape: str
+    joints: Array
+    motions: list[Motion]
+    settings: LatticeSettings
+    geometry: RobotGeometry = DEFAULT_GEOMETRY
+    offset: Array = field(init=False)  # body-frame centroid offset from the tracked point
+    deltas: NDArray[np.int64] = field(init=False)  # [K, M, 3] (di, dj, dk)
+    points: list[Array] = field(init=False)  # per bin: swept sample points rel. to the centroid
+    needs: list[Array] = field(init=False)  # per bin: clearance each point needs
+    segments: list[NDArray[np.int64]] = field(init=False)  # per bin: start index per motion
+
+    def __post_init__(self) -> None:
+        self.offset = centroid_offset(self.joints, self.geometry)
+        reach = self.geometry.body_length
+        K, r = self.settings.orientations, self.settings.resolution
+        self.deltas = np.zeros((K, len(self.motions), 3), dtype=np.int64)
+        self.points, self.needs, self.segments = [], [], []
+        for k in range(K):
+            start = self.pose_of_centroid(np.zeros(2), k)
+            pts_k, need_k, seg = [], [], []
+            for m, motion in enumerate(self.motions):
+                end = compose(start, motion.end)
+                c = self.centroid(end)
+                dk = round(float(motion.end[2]) / self.settings.step)
+                self.deltas[k, m] = (round(c[0] / r), round(c[1] / r), dk)
+                swept = compose(start, _thin(motion.swept, reach)[1:])  # the start is checked
+                fp = footprint(swept, self.joints, self.geometry)
+                pts, need = _capsule_samples(fp.starts, fp.ends, fp.radii)
+                seg.append(sum(len(p) for p in pts_k))
+                pts_k.append(pts)
+                need_k.append(need)
+            self.points.append(np.concatenate(pts_k))
+            self.needs.append(np.concatenate(need_k))
+            self.segments.append(np.array(seg, dtype=np.int64))
+
+    # -- poses --------------------------------------------------------------------------------
+    def heading(self, k: int) -> float:
+        return k * self.settings.step
+
+    def centroid(self, pose: Array) -> Array:
+        """World centroid of tracked-point poses ``[..., 3]``."""
+        out: Array = pose[..., :2] + rotate(self.offset, pose[..., 2])
+        return out
+
+    def pose_of_centroid(self, c: Array, k: int) -> Array:
+        """The tracked-point pose whose centroid is ``c`` at orientation bin ``k``."""
+        psi = self.heading(k)
+        return np.array([*(c - rotate(self.offset, np.array(psi))), psi])
+
+
+@dataclass(frozen=True)
+class LatticeGrid:
+    """Where the lattice's cells lie: ``nx × ny`` centroid cells over the arena."""
+
+    bounds: Bounds
+    settings: LatticeSettings
+
+    @property
+    def nx(self) -> int:
+        return max(1, math.ceil((self.bounds.xmax - self.bounds.xmin) / self.settings.resolution))
+
+    @property
+    def ny(self) -> int:
+        return max(1, math.ceil((self.bounds.ymax - self.bounds.ymin) / self.settings.resolution))
+
+    def centre(self, i: int, j: int) -> Array:
+        r = self.settings.resolution
+        return np.array([self.bounds.xmin + (i + 0.5) * r, self.bounds.ymin + (j + 0.5) * r])
+
+    def cell(self, x: float, y: float) -> tuple[int, int]:
+        r = self.settings.resolution
+        i = min(self.nx - 1, max(0, math.floor((x - self.bounds.xmin) / r)))
+        j = min(self.ny - 1, max(0, math.floor((y - self.bounds.ymin) / r)))
+        return i, j
+
+    def inside(self, i: int, j: int) -> bool:
+        return 0 <= i < self.nx and 0 <= j < self.ny
+
+    def encode(self, key: Key) -> int:
+        i, j, k = key
+        return (k * self.nx + i) * self.ny + j
+
+    def decode(self, number: int) -> Key:
+        rest, j = divmod(number, self.ny)
+        k, i = divmod(rest, self.nx)
+        return i, j, k
+
+    @property
+    def size(self) -> int:
+        return self.nx * self.ny * self.settings.orientations
+
+
+def lattice_shapes(library: Library) -> list[str]:
+    """Shapes for which the library has lattice primitives."""
+    return sorted({e.shape for e in library if e.family == "lattice"})
+
+
+def motion_table(
+    library: Library,
+    shape: str,
+    joints: tuple[float, float, float],
+    settings: LatticeSettings,
+    geometry: RobotGeometry = DEFAULT_GEOMETRY,
+) -> MotionTable | None:
+    """The shape's lattice primitives as a motion table, or ``None`` if the library has none."""
+    entries = library.lattice(shape)
+    if not entries:
+        return None
+    return MotionTable(shape, np.asarray(joints, float), [Motion.of(e) for e in entries], settings, geometry)

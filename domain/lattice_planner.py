@@ -1,0 +1,333 @@
+"""Plans tours of goals on the state lattice with pyperplan's searches, leg by leg.
+
+Before any search, a footprint-aware 2-D distance map per goal (Dijkstra over the cells the
+body centroid can occupy, scipy's csgraph) decides most unreachable goals at once and names
+the cause (enclosed by known or by sensed obstacles); it is also the search heuristic and the
+goal-to-goal distance table that orders unordered goals (no state-space product over goals).
+Each leg (current state to the head on the next goal) is one pyperplan search over a
+``LatticeTask``.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import threading
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from domain.lattice import Key, LatticeGrid, LatticeSettings, MotionTable, relative
+from domain.lattice_task import Clearance, LatticeHeuristic, LatticeTask, primitive_name
+from domain.pyperplan_adapter import HEURISTICS, SEARCHES, PlanResult, SearchStopped
+from sim.robot import Array
+from sim.world import Bounds, footprint
+
+NEIGHBOURS = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1))
+MAX_GOALS_EXACT = 7  # unordered goals up to this many are ordered by trying every permutation
+
+
+@dataclass(frozen=True)
+class LegGoal:
+    """A goal of the tour: its index in the mission, position and tolerance."""
+
+    index: int
+    x: float
+    y: float
+    tolerance: float
+
+
+@dataclass(frozen=True)
+class LatticeAction:
+    """One step of a plan: a primitive from one lattice state to the next, or a goal visit."""
+
+    name: str  # "move" or "visit"
+    pddl: str
+    primitive: str | None  # library id of a move
+    target: tuple[float, float, float]  # tracked-point pose at the end (x, y, ψ)
+    duration: float
+    goal: int | None = None  # mission goal index of a visit
+    source: Key | None = None  # lattice state the move starts from
+    motion: int | None = None  # index of the move's motion in the shape's motion table
+
+
+@dataclass
+class LatticePlan:
+    status: str  # solved | unsolvable | unreachable | timeout | cancelled | no-primitives
+    reason: str = ""
+    actions: list[LatticeAction] = field(default_factory=list)
+    order: list[int] = field(default_factory=list)  # mission goal indices in tour order
+    expansions: int = 0
+    search_ms: float = 0.0
+    task: LatticeTask | None = None  # the first leg's task (for the PDDL export)
+
+    @property
+    def solved(self) -> bool:
+        return self.status == "solved"
+
+    @property
+    def pddl_plan(self) -> list[str]:
+        return [a.pddl for a in self.actions]
+
+    def result(self) -> PlanResult:
+        status = "solved" if self.solved else ("timeout" if self.status == "timeout" else "unsolvable")
+        if self.status == "cancelled":
+            status = "cancelled"
+        return PlanResult(status, self.pddl_plan, self.search_ms, self.expansions, self.reason)  # type: ignore[arg-type]
+
+
+def centroid_need(table: MotionTable) -> float:
+    """Clearance the centroid itself needs: how deep it lies inside the body's capsules."""
+    fp = footprint(np.zeros(3), table.joints, table.geometry)
+    c = table.offset
+    ab = fp.ends - fp.starts
+    s = np.clip(np.sum((c - fp.starts) * ab, -1) / np.maximum(np.sum(ab * ab, -1), 1e-12), 0, 1)
+    d = np.linalg.norm(fp.starts + s[:, None] * ab - c, axis=-1)
+    return float(max(0.0, np.max(fp.radii - d)))
+
+
+def distance_map(
+    grid: LatticeGrid, clearance: Clearance, goal: tuple[float, float], need: float, free: float
+) -> Array:
+    """Geodesic distance (m) from ``goal`` to every cell over cells whose centre keeps
+    ``need`` clear (less the half-cell the centroid may sit off a centre); cells within ``free``
+    of the goal (where the body reaches the goal with its head) are passable."""
+    nx, ny, r = grid.nx, grid.ny, grid.settings.resolution
+    xs = grid.bounds.xmin + (np.arange(nx) + 0.5) * r
+    ys = grid.bounds.ymin + (np.arange(ny) + 0.5) * r
+    cx, cy = np.meshgrid(xs, ys, indexing="ij")
+    centres = np.stack([cx.ravel(), cy.ravel()], -1)
+    ok = clearance(centres) >= need - r * math.sqrt(0.5)
+    ok |= np.hypot(centres[:, 0] - goal[0], centres[:, 1] - goal[1]) <= free
+    ok = ok.reshape(nx, ny)
+    index = np.arange(nx * ny).reshape(nx, ny)
+    rows, cols, weights = [], [], []
+    for di, dj in NEIGHBOURS:
+        a = ok[max(0, -di) : nx - max(0, di), max(0, -dj) : ny - max(0, dj)]
+        b = ok[max(0, di) : nx - max(0, -di) : 1, max(0, dj) : ny - max(0, -dj)]
+        both = a & b
+        ia = index[max(0, -di) : nx - max(0, di), max(0, -dj) : ny - max(0, dj)][both]
+        ib = index[max(0, di) : nx - max(0, -di), max(0, dj) : ny - max(0, -dj)][both]
+        rows.append(ia)
+        cols.append(ib)
+        weights.append(np.full(ia.size, r * math.hypot(di, dj)))
+    graph = coo_matrix(
+        (np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
+        shape=(nx * ny, nx * ny),
+    ).tocsr()
+    gi, gj = grid.cell(*goal)
+    dist = dijkstra(graph, directed=True, indices=int(index[gi, gj]))
+    return np.asarray(dist, dtype=float).reshape(nx, ny)
+
+
+class LatticePlanner:
+    """Plans on the lattice of one body shape against a world model's clearance."""
+
+    def __init__(
+        self,
+        bounds: Bounds,
+        settings: LatticeSettings = LatticeSettings(),
+        search: str = "gbf",
+        heuristic: str = "lattice",
+        time_limit: float = 5.0,
+    ) -> None:
+        if search not in SEARCHES:
+            raise ValueError(f"search: one of {', '.join(SEARCHES)}")
+        if heuristic != "lattice" and heuristic not in HEURISTICS:
+            raise ValueError(f"heuristic: 'lattice' or one of {', '.join(HEURISTICS)}")
+        self.grid = LatticeGrid(bounds, settings)
+        self.settings = settings
+        self.search, self.heuristic, self.time_limit = search, heuristic, time_limit
+        self._maps: dict[tuple[Any, ...], Array] = {}
+
+    # -- lattice states ---------------------------------------------------------------------
+    def key_of(self, table: MotionTable, pose: Sequence[float]) -> Key:
+        """The lattice state of a real pose: its centroid's cell and nearest orientation."""
+        p = np.asarray(pose, dtype=float)
+        c = table.centroid(p)
+        i, j = self.grid.cell(float(c[0]), float(c[1]))
+        k = round(float(p[2]) / self.settings.step) % self.settings.orientations
+        return i, j, k
+
+    def pose_of(self, table: MotionTable, key: Key) -> Array:
+        i, j, k = key
+        return table.pose_of_centroid(self.grid.centre(i, j), k)
+
+    def distances(
+        self, table: MotionTable, clearance: Clearance, version: Any, goal: LegGoal
+    ) -> Array:
+        key = (version, table.shape, goal.x, goal.y)
+        if key not in self._maps:
+            if len(self._maps) > 64:
+                self._maps.clear()
+            free = float(np.linalg.norm(table.offset)) + goal.tolerance
+            self._maps[key] = distance_map(
+                self.grid, clearance, (goal.x, goal.y), centroid_need(table), free
+            )
+        return self._maps[key]
+
+    # -- planning -----------------------------------------------------------------------------
+    def plan(
+        self,
+        table: MotionTable,
+        clearance: Clearance,
+        version: Any,
+        pose: Sequence[float],
+        goals: Sequence[LegGoal],
+        ordered: bool,
+        cancel: threading.Event | None = None,
+        static: tuple[Clearance, Any] | None = None,
+    ) -> LatticePlan:
+        """A plan from ``pose`` through ``goals`` (in the given order, or the best found).
+
+        ``static`` is the clearance of the known obstacles alone: when a goal is cut off, it
+        tells whether the known map already encloses it or sensing did.
+        """
+        started = time.monotonic()
+        deadline = started + self.time_limit
+        start = self.key_of(table, pose)
+        si, sj, _ = start
+        maps = {g.index: self.distances(table, clearance, version, g) for g in goals}
+        for g in goals:
+            if not math.isfinite(maps[g.index][si, sj]):
+                return LatticePlan("unreachable", self._enclosed(table, g, pose, static))
+        order = list(goals) if ordered else self._order(goals, maps, (si, sj))
+        plan = LatticePlan("solved", order=[g.index for g in order])
+        here = start
+        for leg, goal in enumerate(order):
+            task = LatticeTask(
+                self.grid,
+                table,
+                clearance,
+                here,
+                (goal.x, goal.y),
+                max(0.03, 0.6 * goal.tolerance),
+                self.settings.margin,
+                self.settings.start_margin if leg == 0 else self.settings.margin,
+                goal.index,
+            )
+            task.deadline, task.cancel = deadline, cancel
+            if leg == 0:
+                plan.task = task
+            result = self._search(task, maps[goal.index])
+            plan.expansions += task.expansions
+            if not result.solved:
+                plan.status = result.status
+                plan.reason = self._why(result, table, goal)
+                plan.actions = []
+                break
+            actions, here = self._actions(task, table, result.plan)
+            plan.actions += actions
+        plan.search_ms = (time.monotonic() - started) * 1e3
+        return plan
+
+    def _search(self, task: LatticeTask, distances: Array) -> PlanResult:
+        t0 = time.monotonic()
+        step = max(float(np.hypot(*m.end[:2])) for m in task.table.motions)
+        try:
+            if self.heuristic == "lattice":
+                h: Any = LatticeHeuristic(task, distances, max(step, 1e-3))
+            else:
+                task.ground_all()  # pyperplan's own heuristics need every operator
+                h = HEURISTICS[self.heuristic](task)
+            plan = SEARCHES[self.search](task, h) if self.search != "bfs" else SEARCHES["bfs"](task)
+        except SearchStopped as stop:
+            ms = (time.monotonic() - t0) * 1e3
+            return PlanResult(stop.status, [], ms, task.expansions, f"search {stop.status} after {ms:.0f} ms")
+        ms = (time.monotonic() - t0) * 1e3
+        if plan is None:
+            return PlanResult("unsolvable", [], ms, task.expansions, "no plan")
+        return PlanResult("solved", [op.name for op in plan], ms, task.expansions)
+
+    def _actions(
+        self, task: LatticeTask, table: MotionTable, names: list[str]
+    ) -> tuple[list[LatticeAction], Key]:
+        by_name = {primitive_name(m.primitive): i for i, m in enumerate(table.motions)}
+        here = task.start_key
+        out = []
+        for name in names:
+            verb, *args = name.strip("()").split()
+            if verb == "move":
+                source, here = here, self.grid.decode(int(args[1][1:]))
+                m = by_name[args[2]]
+                motion = table.motions[m]
+                pose = self.pose_of(table, here)
+                target = (float(pose[0]), float(pose[1]), float(pose[2]))
+                out.append(
+                    LatticeAction(
+                        "move", name, motion.primitive, target, motion.duration, None, source, m
+                    )
+                )
+            else:
+                pose = self.pose_of(table, here)
+                target = (float(pose[0]), float(pose[1]), float(pose[2]))
+                out.append(LatticeAction("visit", name, None, target, 0.0, task.goal_index))
+        return out, here
+
+    def _order(
+        self, goals: Sequence[LegGoal], maps: dict[int, Array], start: tuple[int, int]
+    ) -> list[LegGoal]:
+        """Unordered goals: the shortest tour by the goal-to-goal distance table."""
+
+        def d(a: tuple[int, int], g: LegGoal) -> float:
+            return float(maps[g.index][a])
+
+        cells = {g.index: self.grid.cell(g.x, g.y) for g in goals}
+
+        def tour_length(tour: Sequence[LegGoal]) -> float:
+            total, here = 0.0, start
+            for g in tour:
+                total += d(here, g)
+                here = cells[g.index]
+            return total
+
+        if len(goals) <= MAX_GOALS_EXACT:
+            return list(min(itertools.permutations(goals), key=tour_length))
+        tour, here, todo = [], start, list(goals)
+        while todo:  # nearest neighbour, then 2-opt
+            g = min(todo, key=lambda x: d(here, x))
+            tour.append(g)
+            todo.remove(g)
+            here = cells[g.index]
+        improved = True
+        while improved:
+            improved = False
+            for a, b in itertools.combinations(range(len(tour)), 2):
+                candidate = tour[:a] + tour[a : b + 1][::-1] + tour[b + 1 :]
+                if tour_length(candidate) < tour_length(tour) - 1e-9:
+                    tour, improved = candidate, True
+        return tour
+
+    def _enclosed(
+        self,
+        table: MotionTable,
+        goal: LegGoal,
+        pose: Sequence[float],
+        static: tuple[Clearance, Any] | None,
+    ) -> str:
+        by = "known/sensed obstacles"
+        if static is not None:
+            si, sj, _ = self.key_of(table, pose)
+            known = self.distances(table, static[0], ("static", static[1]), goal)
+            by = "known obstacles" if not math.isfinite(known[si, sj]) else "sensed obstacles"
+        return f"unreachable: goal {goal.index} at ({goal.x:g}, {goal.y:g}) enclosed by {by}"
+
+    def _why(self, result: PlanResult, table: MotionTable, goal: LegGoal) -> str:
+        if result.status == "unsolvable":
+            return (
+                f"unreachable: no collision-free sequence of {table.shape} primitives brings "
+                f"the body to goal {goal.index} at ({goal.x:g}, {goal.y:g})"
+            )
+        if result.status == "timeout":
+            return f"planning timeout: no plan to goal {goal.index} within {self.time_limit:g} s"
+        return f"planning {result.status}"
+
+
+def offset_from(pose: Sequence[float], target: Sequence[float]) -> Array:
+    """Where ``target`` lies in the frame of ``pose`` (dx, dy, dψ)."""
+    return relative(np.asarray(pose, dtype=float), np.asarray(target, dtype=float))

@@ -1,0 +1,223 @@
+"""The navigation strategy: plans on the primitive lattice and runs the plan primitive by primitive.
+
+Each ``move`` runs one library primitive's parameters for its duration. The robot is never
+exactly on the lattice, so a move is grounded from the real pose towards the planned state:
+the primitive as it is when it lands close enough, else the primitive blended with small
+library primitives (``primitives.grounding``). A ``visit`` is a final approach that puts the
+tracked point on the goal, also blended from library primitives. Everything known of a
+primitive comes from its library entry; nothing probes a simulator or inverts the model.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from domain.lattice import LatticeSettings, MotionTable, motion_table
+from domain.lattice_pddl import lattice_domain, lattice_problem
+from domain.lattice_planner import LatticeAction, LatticePlan, LatticePlanner
+from domain.strategy import Command, Replanned, Situation
+from domain.triggers import NoProgress, PathBlocked, ReplanRecord, Trigger
+from primitives.grounding import TICK, Grounded, correction_basis, ground
+from primitives.library import Library
+from sim.controls import FixedShape
+from sim.robot import rotate
+
+OFF_PLAN = (0.3, math.radians(35))  # further than this from a planned state: replan
+ARRIVE_TRIES = 4  # final approaches to one goal before giving up on the plan
+LOOKAHEAD = 16  # plan steps re-checked against the world model when it changes
+
+
+@dataclass
+class Running:
+    """The grounded move being executed and the model time it has left."""
+
+    action: LatticeAction
+    grounded: Grounded
+    left: float
+
+
+class NavigationStrategy:
+    """Plans on the lattice of the body's shape; executes moves as grounded primitives."""
+
+    name = "navigation"
+
+    def __init__(
+        self,
+        library: Library,
+        planner: LatticePlanner,
+    ) -> None:
+        self.library = library
+        self.planner = planner
+        self.settings: LatticeSettings = planner.settings
+        self._tables: dict[tuple[str, tuple[float, ...]], MotionTable | None] = {}
+        self.plan: LatticePlan | None = None
+        self.table: MotionTable | None = None
+        self.index = 0
+        self.running: Running | None = None
+        self.arrive_tries = 0
+        self._checked: tuple[int, int] = (-1, -1)  # (world version, plan index) last checked
+
+    # -- the lattice of the current body --------------------------------------------------------
+    def table_for(self, shape: str, joints: tuple[float, float, float]) -> MotionTable | None:
+        held = tuple(round(v / 0.05) * 0.05 for v in joints)  # the footprint of the real body
+        key = (shape, held)
+        if key not in self._tables:
+            joints3 = (held[0], held[1], held[2])
+            self._tables[key] = motion_table(self.library, shape, joints3, self.settings)
+        return self._tables[key]
+
+    # -- PlanningStrategy ----------------------------------------------------------------------
+    def replan(
+        self, situation: Situation, trigger: Trigger, cancel: threading.Event | None = None
+    ) -> Replanned:
+        s = situation
+        t0 = time.perf_counter()
+        old = self.plan.pddl_plan[self.index :] if self.plan else []
+        table = self.table_for(s.shape, s.joints)
+        self.running, self.index, self.arrive_tries = None, 0, 0
+        if table is None:
+            self.plan = LatticePlan(
+                "no-primitives", f"body shape {s.shape} has no primitives in the library"
+            )
+        else:
+            world = s.world
+            self.plan = self.planner.plan(
+                table,
+                world.clearance_at,
+                world.version,
+                s.pose,
+                s.goals,
+                s.ordered,
+                cancel,
+                static=(world.static_clearance_at, world.static_version),
+            )
+        self.table = table
+        latency = (time.perf_counter() - t0) * 1e3
+        plan = self.plan
+        record = ReplanRecord(
+            trigger.kind, trigger.detail(), round(s.t, 3), latency, old, plan.pddl_plan, plan.status
+        )
+        problem = lattice_problem(plan.task, s.shape) if plan.task is not None else ""
+        self._checked = (s.world.version, 0)
+        return Replanned(
+            plan.solved, plan.reason, record, lattice_domain().text(), problem, plan.pddl_plan
+        )
+
+    def broken(self, situation: Situation) -> Trigger | None:
+        """Re-check the next moves' swept footprints whenever the world model changed."""
+        plan, table = self.plan, self.table
+        if plan is None or table is None or not plan.solved:
+            return None
+        now = (situation.world.version, self.index)
+        if now == self._checked:
+            return None
+        self._checked = now
+        first = self.index + (1 if self.running is not None else 0)
+        clearance = situation.world.clearance_at
+        for action in plan.actions[first : first + LOOKAHEAD]:
+            if action.name != "move" or action.source is None or action.motion is None:
+                continue
+            i, j, k = action.source
+            centre = self.planner.grid.centre(i, j)
+            seg = table.segments[k]
+            m = action.motion
+            lo = int(seg[m])
+            hi = int(seg[m + 1]) if m + 1 < len(seg) else len(table.points[k])
+            ok = clearance(centre + table.points[k][lo:hi]) >= table.needs[k][lo:hi] + self.settings.margin
+            if not bool(np.all(ok)):
+                return PathBlocked(action.pddl, (round(float(centre[0]), 3), round(float(centre[1]), 3)))
+        return None
+
+    def command(self, situation: Situation) -> Command | Trigger | None:
+        plan, table = self.plan, self.table
+        if plan is None or table is None or not plan.solved:
+            return None
+        while True:
+            if self.running is not None:
+                if self.running.left > 1e-9:
+                    self.running.left -= TICK
+                    return self._command(self.running)
+                done, self.running = self.running.action, None
+                if done.name == "move":
+                    self.index += 1
+                    off = self._offset(situation, done.target)
+                    if math.hypot(off[0], off[1]) > OFF_PLAN[0] or abs(off[2]) > OFF_PLAN[1]:
+                        return NoProgress(done.pddl, "the move ended far from its planned state")
+            if self.index >= len(plan.actions):
+                return None
+            action = plan.actions[self.index]
+            if action.name == "visit":
+                remaining = {g.index for g in situation.goals}
+                if action.goal not in remaining:
+                    self.index += 1
+                    self.arrive_tries = 0
+                    continue
+                self.arrive_tries += 1
+                if self.arrive_tries > ARRIVE_TRIES:
+                    return NoProgress(action.pddl, "the final approach did not reach the goal")
+                self.running = self._approach(situation, table, action)
+                continue
+            off = self._offset(situation, action.target)
+            if math.hypot(off[0], off[1]) > OFF_PLAN[0] + 0.3 or abs(off[2]) > OFF_PLAN[1] + 0.3:
+                return NoProgress(action.pddl, "the robot is off the plan")
+            assert action.primitive is not None
+            entry = self.library.get(action.primitive)
+            grounded = ground(off, correction_basis(self.library.lattice(table.shape)), entry)
+            self.running = Running(action, grounded, grounded.duration)
+
+    def actions(self) -> list[dict[str, Any]]:
+        if self.plan is None:
+            return []
+        out = []
+        for i, a in enumerate(self.plan.actions):
+            verb, *args = a.pddl.strip("()").split()
+            grounding: dict[str, Any] = {"method": "library", "primitives": [a.primitive] if a.primitive else []}
+            if self.running is not None and i == self.index:
+                grounding = self.running.grounded.to_dict()
+            out.append(
+                {
+                    "name": verb,
+                    "args": args,
+                    "heading": math.degrees(a.target[2]),
+                    "shape": self.table.shape if self.table else None,
+                    "target": {"x": a.target[0], "y": a.target[1]},
+                    "duration": a.duration,
+                    "grounding": grounding,
+                    "goal": a.goal,
+                }
+            )
+        return out
+
+    @property
+    def current_action(self) -> str:
+        if self.running is not None:
+            return self.running.action.pddl
+        return ""
+
+    # -- helpers -------------------------------------------------------------------------------
+    @staticmethod
+    def _offset(situation: Situation, target: tuple[float, float, float]) -> np.ndarray:
+        x, y, psi = situation.pose
+        d = rotate(np.array([target[0] - x, target[1] - y]), np.array(-psi))
+        return np.array([d[0], d[1], math.remainder(target[2] - psi, 2 * math.pi)])
+
+    def _approach(self, situation: Situation, table: MotionTable, action: LatticeAction) -> Running:
+        """A final approach that puts the tracked point on the goal, heading kept."""
+        goal = next(g for g in situation.goals if g.index == action.goal)
+        x, y, psi = situation.pose
+        d = rotate(np.array([goal.x - x, goal.y - y]), np.array(-psi))
+        basis = [e for e in correction_basis(self.library.lattice(table.shape)) if e.turn == 0.0]
+        grounded = ground((float(d[0]), float(d[1]), 0.0), basis)
+        return Running(action, grounded, grounded.duration)
+
+    @staticmethod
+    def _command(running: Running) -> Command:
+        g = running.grounded
+        control = FixedShape.of(g.theta, g.joints)
+        return Command(control, running.action.pddl, g.to_dict())

@@ -1,0 +1,80 @@
+"""One PlanningStrategy protocol: the executor plans, checks and executes through it alone.
+
+A strategy owns its plan and its state; the executor hands it a ``Situation`` (what the robot
+knows now: time, tracked pose, sensed joints, body shape, remaining goals, the world model and
+the latest range readings) and asks three things: replan after a trigger, whether the current
+plan is broken (a precondition violated), and the command for the next control tick. The
+navigation strategy (``domain.navigation_strategy``) plans on the primitive lattice; the
+reactive one (``domain.reactive_strategy``) is the paper's Table 3 domain.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+from domain.lattice_planner import LegGoal
+from domain.triggers import ReplanRecord, Trigger
+from domain.worldmodel import RangeObservation, WorldModel
+from sim.controls import Control
+
+
+@dataclass(frozen=True)
+class Situation:
+    """What the executor knows now (never simulator truth)."""
+
+    t: float
+    pose: tuple[float, float, float]
+    joints: tuple[float, float, float]  # sensed (the commanded ones while the sensors drop out)
+    shape: str  # the library shape the body is classified as
+    goals: tuple[LegGoal, ...]  # remaining goals, mission indices kept
+    ordered: bool
+    world: WorldModel
+    ranges: tuple[tuple[str, RangeObservation], ...] = ()
+
+
+@dataclass(frozen=True)
+class Command:
+    """The control for the next tick and what it executes."""
+
+    control: Control
+    action: str  # the plan step, as PDDL text
+    grounding: dict[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class Replanned:
+    """The outcome of a replan: a plan (``ok``) or the reason there is none."""
+
+    ok: bool
+    reason: str
+    record: ReplanRecord
+    domain_pddl: str
+    problem_pddl: str
+    plan: list[str]
+
+
+class PlanningStrategy(Protocol):
+    """Plans, checks and executes one mission's plan."""
+
+    name: str
+
+    def replan(
+        self, situation: Situation, trigger: Trigger, cancel: threading.Event | None = None
+    ) -> Replanned:
+        """A new plan from the situation (the first plan too), recorded with its trigger."""
+        ...
+
+    def broken(self, situation: Situation) -> Trigger | None:
+        """A trigger if the rest of the plan no longer holds in the situation."""
+        ...
+
+    def command(self, situation: Situation) -> Command | Trigger | None:
+        """The command for the next tick; a trigger if execution cannot go on; ``None`` when
+        the plan is done."""
+        ...
+
+    def actions(self) -> list[dict[str, Any]]:
+        """The current plan's steps for the API (name, args, primitives, grounding, ...)."""
+        ...

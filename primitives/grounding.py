@@ -1,0 +1,142 @@
+"""Grounding a planned motion from where the robot really is: a library primitive as it is,
+or an interpolation of library primitives that corrects the offset.
+
+Everything used here comes from library entries: their parameters, durations and the end
+poses recorded when they were learned. For a fixed shape the body twist is linear in the screw
+speeds, so a weighted sum of primitives' parameters moves by the same weighted sum of their
+recorded motions (in the Lie algebra of SE(2), exact while the weights keep the twist
+constant). A correction is the planned primitive plus small library translations and a small
+library turn, weighted so their recorded motions add up to the offset still to go: the same
+kind of blend as the paper's bilinear interpolation (eqs. 16-18), with f(O) = 0.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from primitives.library import Primitive
+from sim.robot import Array
+
+TICK = 0.25  # model seconds: durations are whole control ticks
+MAX_SPEED = 0.95  # rad/s: a blend faster than this is stretched in time instead
+LIBRARY_MATCH = (0.004, math.radians(0.3))  # offsets within this run the primitive as it is
+
+
+def twist_of(end_pose: Sequence[float]) -> Array:
+    """The SE(2) logarithm of a start-frame end pose: (vx, vy, ω)·T of a constant twist."""
+    dx, dy, w = (float(v) for v in end_pose)
+    if abs(w) < 1e-9:
+        return np.array([dx, dy, 0.0])
+    a = w / 2
+    c = a / math.tan(a)  # V⁻¹ = [[c, a], [-a, c]] for the SE(2) exponential
+    return np.array([c * dx + a * dy, -a * dx + c * dy, w])
+
+
+@dataclass(frozen=True)
+class Grounded:
+    """What the executor runs for one move: screw speeds with joints held, for a duration."""
+
+    theta: Array
+    joints: Array
+    duration: float
+    method: str  # "library" or "interpolated"
+    primitives: tuple[str, ...]
+    expected: Array  # start-frame end pose the library data predict
+
+    def to_dict(self) -> dict[str, object]:
+        return {
+            "method": self.method,
+            "primitives": list(self.primitives),
+            "duration": self.duration,
+        }
+
+
+def _exp(xi: Array) -> Array:
+    vx, vy, w = xi
+    if abs(w) < 1e-9:
+        return np.array([vx, vy, 0.0])
+    s, c = math.sin(w), math.cos(w)
+    return np.array([(s * vx - (1 - c) * vy) / w, ((1 - c) * vx + s * vy) / w, w])
+
+
+def correction_basis(entries: Sequence[Primitive]) -> list[Primitive]:
+    """The shortest translations and the smallest turns of a shape: what corrections use."""
+    moves = [e for e in entries if e.turn == 0.0]
+    turns = [e for e in entries if e.turn != 0.0]
+    shortest = min((math.hypot(*e.goal) for e in moves), default=0.0)
+    smallest = min((abs(e.turn) for e in turns), default=0.0)
+    basis = [e for e in moves if math.hypot(*e.goal) <= shortest + 1e-9]
+    basis += [e for e in turns if abs(e.turn) <= smallest + 1e-9]
+    return basis
+
+
+def ground(
+    offset: Sequence[float], basis: Sequence[Primitive], planned: Primitive | None = None
+) -> Grounded:
+    """Parameters that end at ``offset`` (start frame of the current pose).
+
+    With ``planned``: that primitive as it is when it lands close enough, else blended with
+    ``basis`` (see ``correction_basis``) to make up the difference. Without: a blend of
+    ``basis`` alone (a final approach to a goal).
+    """
+    want = np.asarray(offset, dtype=float)
+    if planned is not None:
+        assert planned.end_pose is not None and planned.joints is not None
+        duration = float(planned.rollout.duration)
+        theta = np.asarray(planned.theta, dtype=float)
+        joints = np.asarray(planned.joints, dtype=float)
+        base = twist_of(planned.end_pose)
+        used = [planned.id]
+        miss = want - np.asarray(planned.end_pose)
+        if math.hypot(miss[0], miss[1]) <= LIBRARY_MATCH[0] and abs(miss[2]) <= LIBRARY_MATCH[1]:
+            return Grounded(theta, joints, duration, "library", (planned.id,), _exp(base))
+    else:
+        duration = max(float(e.rollout.duration) for e in basis)
+        theta = np.zeros(4)
+        joints = np.asarray(basis[0].joints or (0.0, 0.0, 0.0), dtype=float)
+        base, used = np.zeros(3), []
+    delta = twist_of(want) - base
+    # Each basis primitive b adds w·ξ_b when run at w·T_b/T of its speeds over the duration T.
+    xis = np.array([twist_of(e.end_pose or (0.0, 0.0, 0.0)) for e in basis])  # [B, 3]
+    weights = _weights(xis, delta)
+    for w, e in zip(weights, basis, strict=True):
+        if abs(w) > 1e-9:
+            theta = theta + w * np.asarray(e.theta) * (float(e.rollout.duration) / duration)
+            used.append(e.id)
+    expected = _exp(base + xis.T @ weights)
+    peak = float(np.max(np.abs(theta))) if theta.size else 0.0
+    if peak > MAX_SPEED:  # the same motion, slower: stretch the duration to whole ticks
+        stretched = math.ceil(duration * peak / MAX_SPEED / TICK - 1e-9) * TICK
+        theta, duration = theta * (duration / stretched), stretched
+    return Grounded(theta, joints, duration, "interpolated", tuple(used), expected)
+
+
+def _weights(xis: Array, delta: Array) -> Array:
+    """Weights of at most three basis primitives (the two translations bracketing the missing
+    translation's direction, and a turn for the missing rotation), least squares otherwise."""
+    trans = [b for b in range(len(xis)) if abs(xis[b, 2]) < 1e-9]
+    turns = [b for b in range(len(xis)) if abs(xis[b, 2]) >= 1e-9]
+    out = np.zeros(len(xis))
+    if len(xis) == 0:
+        return out
+    pick: list[int] = []
+    if len(trans) >= 2 and math.hypot(delta[0], delta[1]) > 1e-9:
+        angle = math.atan2(delta[1], delta[0])
+        gap = {
+            b: math.remainder(math.atan2(xis[b, 1], xis[b, 0]) - angle, 2 * math.pi)
+            for b in trans
+        }
+        right = [b for b in trans if gap[b] <= 0]
+        left = [b for b in trans if gap[b] > 0]
+        if right and left:
+            pick += [max(right, key=gap.__getitem__), min(left, key=gap.__getitem__)]
+    if turns and abs(delta[2]) > 1e-9:
+        pick.append(min(turns, key=lambda b: (bool(np.sign(xis[b, 2]) != np.sign(delta[2])), abs(xis[b, 2]))))
+    chosen = pick if pick else list(range(len(xis)))
+    w, *_ = np.linalg.lstsq(xis[chosen].T, delta, rcond=None)
+    out[chosen] = w
+    return out
