@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Annotated
 
@@ -13,7 +14,7 @@ from rich.table import Table
 from app.console import console, fail
 from app.plots import plot_learning_curves, plot_trajectories
 from primitives.build import build_library
-from primitives.catalogue import default_specs, grid_specs
+from primitives.catalogue import FAMILIES, PrimitiveSpec, default_specs, grid_specs, lattice_specs
 from primitives.executors import make_executor
 from primitives.learners import LEARNERS, StopRule, UpdateRecord, make_learner
 from primitives.library import Library, LibraryError, bundled_library_path
@@ -93,6 +94,13 @@ def library_build(
     grid: Annotated[
         bool, typer.Option(help="8 headings × 1, 2, 3 m per shape instead of Fig. 6")
     ] = False,
+    family: Annotated[
+        str,
+        typer.Option(
+            help="paper (Fig. 6 or --grid), lattice (short translations and turns of fixed "
+            "shapes) or both"
+        ),
+    ] = "both",
     shapes: Annotated[str, typer.Option(help="comma-separated shapes")] = ",".join(SHAPES),
     executor: Annotated[str, typer.Option(help="serial, local (process pool) or ray")] = "local",
     workers: Annotated[
@@ -107,11 +115,14 @@ def library_build(
         names = tuple(s.strip() for s in shapes.split(",") if s.strip())
         for name in names:
             shape_named(name)
-        specs = (
-            grid_specs(tuple(n for n in names if not SHAPES[n].periodic))
-            if grid
-            else default_specs(names)
-        )
+        if family not in (*FAMILIES, "both"):
+            raise ValueError(f"family: one of {', '.join(FAMILIES)}, both; got {family!r}")
+        specs: list[PrimitiveSpec] = []
+        if family in ("paper", "both"):  # paper entries first: their seeds do not depend on lattice
+            fixed = tuple(n for n in names if not SHAPES[n].periodic)
+            specs += grid_specs(fixed) if grid else default_specs(names)
+        if family in ("lattice", "both"):
+            specs += lattice_specs(names)
         pool = make_executor(executor, workers, address)
         make_learner(learner)
     except ValueError as exc:
@@ -126,8 +137,13 @@ def library_build(
         job = bar.add_task(f"learning ({pool.name})", total=len(specs))
         library = build_library(specs, learner, seed, pool, done=lambda i: bar.advance(job))
     library.save(out)
-    worst = max(e.cost for e in library)
-    console.print(f"{len(library)} primitives, worst end error {worst * 100:.1f} cm → {out}")
+    parts = []
+    for name in FAMILIES:
+        entries = [e for e in library if e.family == name]
+        if entries:
+            worst = max(e.cost for e in entries) * 100
+            parts.append(f"{len(entries)} {name} (worst cost {worst:.2f} cm)")
+    console.print(f"{len(library)} primitives: {', '.join(parts) or 'none'} → {out}")
 
 
 @library_cli.command("show")
@@ -136,8 +152,9 @@ def library_show(
         Path | None, typer.Argument(help="library JSON (default: the bundled one)")
     ] = None,
     shape: Annotated[str | None, typer.Option(help="only this shape")] = None,
+    family: Annotated[str | None, typer.Option(help="only this family: paper or lattice")] = None,
 ) -> None:
-    """List the primitives: id, label, shape, goal, direction, parameters, error."""
+    """List the primitives: id, label, shape, goal, direction, turn, duration, parameters, error."""
     library = load_library(path)
     table = Table(title=f"{len(library)} primitives")
     for col in (
@@ -146,6 +163,8 @@ def library_show(
         "shape",
         "goal (m)",
         "dir (°)",
+        "turn (°)",
+        "T (s)",
         "θ̇ (rad/s)",
         "φ / ϕ (rad)",
         "error (cm)",
@@ -153,7 +172,7 @@ def library_show(
     ):
         table.add_column(col)
     for e in library:
-        if shape and e.shape != shape:
+        if (shape and e.shape != shape) or (family and e.family != family):
             continue
         table.add_row(
             e.id,
@@ -161,6 +180,8 @@ def library_show(
             e.shape,
             f"({e.goal[0]:.2f}, {e.goal[1]:.2f})",
             f"{e.direction:.0f}",
+            f"{math.degrees(e.turn):+.3g}" if e.family == "lattice" else "",
+            f"{e.rollout.duration:g}",
             " ".join(f"{v:+.2f}" for v in e.theta),
             " ".join(f"{v:+.2f}" for v in (e.phases or e.joints or ())),
             f"{e.cost * 100:.1f}",

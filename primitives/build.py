@@ -1,4 +1,8 @@
-"""Learn many primitives through an executor and assemble them into a library, deterministically."""
+"""Learn many primitives through an executor and assemble them into a library, deterministically.
+
+Paper and lattice specs go through the same jobs; a lattice spec is learned by
+primitives/lattice.py with its own, tighter stop rule.
+"""
 
 from __future__ import annotations
 
@@ -10,6 +14,7 @@ import numpy as np
 
 from primitives.catalogue import PrimitiveSpec
 from primitives.executors import Executor, SerialExecutor
+from primitives.lattice import LATTICE_STOP, learn_lattice
 from primitives.learners import StopRule, make_learner
 from primitives.library import Library, Primitive
 from primitives.task import LearningTask
@@ -37,6 +42,8 @@ class BuildJob:
 
 def learn_primitive(job: BuildJob) -> Primitive:
     """Learn one primitive; retries with the following seeds until it converges."""
+    if job.spec.family == "lattice":
+        return learn_lattice(job.spec, job.learner, job.seed, job.stop)
     space = job.spec.space()
     task = LearningTask(job.spec.goal, space)
     learner = make_learner(job.learner)
@@ -75,10 +82,18 @@ def build_library(
     executor: Executor | None = None,
     stop: StopRule | None = None,
     done: Callable[[int], None] | None = None,
+    lattice_stop: StopRule | None = None,
 ) -> Library:
-    """Learn every spec (seed ``seed + index``) and return the library in spec order."""
+    """Learn every spec (seed ``seed + index``) and return the library in spec order.
+
+    ``stop`` applies to paper specs, ``lattice_stop`` (default: 3 mm / 0.17°) to lattice specs.
+    """
     make_learner(learner)  # fail fast on an unknown name
     rule = stop or StopRule(threshold=BUILD_THRESHOLD, max_updates=200)
-    jobs = [BuildJob(spec, learner, seed + i, rule) for i, spec in enumerate(specs)]
+    fine = lattice_stop or LATTICE_STOP
+    jobs = [
+        BuildJob(spec, learner, seed + i, fine if spec.family == "lattice" else rule)
+        for i, spec in enumerate(specs)
+    ]
     entries = (executor or SerialExecutor()).map(learn_primitive, jobs, done)
     return Library(entries, code_version())

@@ -1,5 +1,10 @@
 """The primitive library: entries (DESIGN §4), a versioned JSON format, validation and queries.
 
+Two families of entries: ``paper`` primitives (one 100 s rollout to a Fig. 6 goal of the tracked
+point) and ``lattice`` primitives (short centroid translations and turns in place, for planners
+that chain them; primitives/lattice.py). Format version 2 added the lattice fields; version 1
+files still load (their entries are all ``paper``).
+
 A file is read whole and validated before a ``Library`` exists: a corrupt, truncated, foreign
 or newer file raises ``LibraryError`` with the reason; there is never a half-loaded library.
 """
@@ -22,13 +27,15 @@ from sim.controls import Control
 from sim.rollout import JointMode, RolloutConfig
 
 FORMAT: Literal["screwsnake-primitive-library"] = "screwsnake-primitive-library"
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 BUNDLED = "default_library.json"
 
 Finite = Annotated[float, Field(allow_inf_nan=False)]
 Vec2 = tuple[Finite, Finite]
 Vec3 = tuple[Finite, Finite, Finite]
 Vec4 = tuple[Finite, Finite, Finite, Finite]
+Family = Literal["paper", "lattice"]
+Reference = Literal["head", "centroid"]
 
 
 class LibraryError(ValueError):
@@ -50,7 +57,13 @@ class RolloutSettings(Frozen):
 
 class Primitive(Frozen):
     """One learned motor primitive: parameters that carry the robot from the start pose
-    (0, 0, ψ = 0) to ``goal`` (a start-frame displacement) in one rollout."""
+    (0, 0, ψ = 0) to ``goal`` (a start-frame displacement) in one rollout of ``rollout``.
+
+    Lattice entries: ``goal`` is the target displacement of the ``reference`` point (the body
+    centroid) and ``turn`` the target Δψ (rad); ``end_pose`` is where the tracked point really
+    lands (start frame, dx, dy, dψ) and ``swept`` the tracked-point poses along the way (start
+    and end included), both from one rollout of the stored parameters for ``rollout.duration``.
+    """
 
     id: Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.-]+$")]
     label: str | None = None
@@ -69,6 +82,11 @@ class Primitive(Frozen):
     rollouts: int
     curve: list[Finite] = Field(default_factory=list)
     rollout: RolloutSettings = Field(default_factory=RolloutSettings)
+    family: Family = "paper"
+    reference: Reference = "head"
+    turn: Finite = 0.0
+    end_pose: Vec3 | None = None
+    swept: list[Vec3] = Field(default_factory=list)
 
     @model_validator(mode="after")
     def _consistent(self) -> Primitive:
@@ -78,6 +96,8 @@ class Primitive(Frozen):
             raise ValueError(
                 "a periodic primitive has phases and no joints; a fixed one joints only"
             )
+        if self.family == "lattice" and (self.end_pose is None or len(self.swept) < 2):
+            raise ValueError("a lattice primitive has an end_pose and at least two swept poses")
         return self
 
     @property
@@ -152,11 +172,26 @@ class Library:
     def shapes(self) -> list[str]:
         return sorted({e.shape for e in self})
 
-    def of_shape(self, shape: str) -> list[Primitive]:
-        return [e for e in self if e.shape == shape]
+    def of_shape(self, shape: str, family: Family | None = "paper") -> list[Primitive]:
+        """Entries of ``shape`` of one family (paper by default, as the generalisers and the
+        paper's move actions expect), or of every family with ``family=None``."""
+        return [e for e in self if e.shape == shape and family in (None, e.family)]
+
+    def paper(self) -> list[Primitive]:
+        """The paper-family entries, in library order."""
+        return [e for e in self if e.family == "paper"]
+
+    def lattice(self, shape: str) -> list[Primitive]:
+        """The lattice entries of ``shape``, in library (catalogue) order: translations by
+        distance then body angle, then turns from −45° to +45°."""
+        return self.of_shape(shape, "lattice")
+
+    def lattice_shapes(self) -> list[str]:
+        """Shapes that have lattice primitives."""
+        return sorted({e.shape for e in self if e.family == "lattice"})
 
     def nearest(self, displacement: tuple[float, float], shape: str) -> Primitive:
-        """The entry of ``shape`` whose start-frame goal is closest to ``displacement``."""
+        """The paper entry of ``shape`` whose start-frame goal is closest to ``displacement``."""
         candidates = self.of_shape(shape)
         if not candidates:
             raise KeyError(f"no primitive of shape {shape!r} in the library")

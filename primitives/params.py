@@ -25,25 +25,28 @@ class ParameterSpace:
 
     kind: Kind
     joints: tuple[float, float, float] = (0.0, 0.0, 0.0)  # the held shape for U1
+    speed_limit: float = SPEED_CLAMP  # |θ̇| clamp; lattice primitives refine under a lower cap
 
     def __post_init__(self) -> None:
         if self.kind not in KINDS:
             raise ValueError(f"kind: one of {KINDS}, got {self.kind!r}")
+        if not 0 < self.speed_limit <= SPEED_CLAMP:
+            raise ValueError(f"speed_limit: in (0, {SPEED_CLAMP}] rad/s")
 
     @property
     def size(self) -> int:
         return 4 if self.kind == "U1" else 7
 
     def clamp(self, params: Array) -> Array:
-        """The paper's clamps: |θ̇| <= 1 rad/s, |φ| <= 1 rad; phases are free."""
+        """The paper's clamps: |θ̇| <= 1 rad/s (``speed_limit``), |φ| <= 1 rad; phases are free."""
         out = np.array(params, dtype=float)
-        out[..., :4] = np.clip(out[..., :4], -SPEED_CLAMP, SPEED_CLAMP)
+        out[..., :4] = np.clip(out[..., :4], -self.speed_limit, self.speed_limit)
         if self.kind == "U2":
             out[..., 4:] = np.clip(out[..., 4:], -JOINT_CLAMP, JOINT_CLAMP)
         return out
 
     def bounds(self) -> tuple[Array, Array]:
-        hi = np.full(self.size, SPEED_CLAMP)
+        hi = np.full(self.size, self.speed_limit)
         if self.kind == "U2":
             hi[4:] = JOINT_CLAMP
         elif self.kind == "U3":

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -11,6 +12,15 @@ from numpy.typing import ArrayLike
 from primitives.params import ParameterSpace
 from sim.robot import Array
 from sim.rollout import PAPER_ROLLOUT, RolloutConfig, rollout
+
+
+class Task(Protocol):
+    """What a learner needs of a task: the parameter space and batched costs ``[K]``."""
+
+    @property
+    def space(self) -> ParameterSpace: ...
+
+    def costs(self, params: ArrayLike) -> Array: ...
 
 
 @dataclass(frozen=True)

@@ -217,3 +217,28 @@ def head_tip(pose: Array, geometry: RobotGeometry = DEFAULT_GEOMETRY) -> Array:
     return pose[..., :2] + geometry.head_length * np.stack(
         [np.cos(forward), np.sin(forward)], axis=-1
     )
+
+
+def unit_centres(pose: Array, phi: Array, geometry: RobotGeometry = DEFAULT_GEOMETRY) -> Array:
+    """Screw centres p_1..p_4 (kinematics.md §1), ``[..., 4, 2]``, for poses ``[..., 3]``."""
+    th = pose[..., 2:3] + unit_headings(phi)  # [..., 4]
+    axes = np.stack([np.cos(th), np.sin(th)], axis=-1)  # [..., 4, 2]
+    rear = joint_positions(pose, phi, geometry)[..., :-1, :]  # J_0 (tracked point) .. J_3
+    out: Array = rear + geometry.front_length * axes
+    return out
+
+
+def centroid_offset(phi: Array, geometry: RobotGeometry = DEFAULT_GEOMETRY) -> Array:
+    """Body-frame (ψ = 0) offset ``[..., 2]`` from the tracked point to the body centroid, the
+    mean of the four unit centres; (0.442, 0) for the straight shape."""
+    phi = np.asarray(phi, dtype=float)
+    zero = np.zeros((*phi.shape[:-1], 3))
+    out: Array = unit_centres(zero, phi, geometry).mean(axis=-2)
+    return out
+
+
+def centroid(pose: Array, phi: Array, geometry: RobotGeometry = DEFAULT_GEOMETRY) -> Array:
+    """World position ``[..., 2]`` of the body centroid at poses ``[..., 3]`` with joints ``phi``."""
+    pose = np.asarray(pose, dtype=float)
+    out: Array = pose[..., :2] + rotate(centroid_offset(phi, geometry), pose[..., 2])
+    return out

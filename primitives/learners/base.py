@@ -10,7 +10,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from primitives.task import LearningTask
+from primitives.task import Task
 from sim.robot import Array
 
 
@@ -89,7 +89,7 @@ class Learner(Protocol):
 
     def learn(
         self,
-        task: LearningTask,
+        task: Task,
         seed: int,
         stop: StopRule = ...,
         initial: Array | None = None,
@@ -118,7 +118,7 @@ class Recorder:
         self.progress = progress
         self.started = time.perf_counter()
 
-    def start(self, task: LearningTask, initial: Array | None) -> tuple[Array, float]:
+    def start(self, task: Task, initial: Array | None) -> tuple[Array, float]:
         """The clamped start (zeros unless given), evaluated noise-free and recorded as update 0."""
         space = task.space
         u = space.clamp(np.zeros(space.size) if initial is None else np.asarray(initial, float))

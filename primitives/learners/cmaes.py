@@ -15,7 +15,7 @@ from primitives.learners.base import (
     SettingsFromFields,
     StopRule,
 )
-from primitives.task import LearningTask
+from primitives.task import Task
 from sim.robot import Array
 
 
@@ -23,16 +23,12 @@ from sim.robot import Array
 class CMAES(SettingsFromFields):
     popsize: int = 8
     sigma0: float = 0.15
-    patience: int = 30  # generations without a 1 % better best before a restart
+    patience: int = 30  # generations without a 1 % better run best before a fresh restart
     name: str = "cmaes"
-
-    def _stalled(self, rec: Recorder) -> bool:
-        h = rec.history
-        return len(h) > self.patience and h[-1].cost >= 0.99 * h[-1 - self.patience].cost
 
     def learn(
         self,
-        task: LearningTask,
+        task: Task,
         seed: int,
         stop: StopRule = DEFAULT_STOP,
         initial: Array | None = None,
@@ -54,8 +50,8 @@ class CMAES(SettingsFromFields):
         es = cma.CMAEvolutionStrategy(list(x0), self.sigma0, options)
         restarts = 0
         rec = Recorder(progress)
-        rec.start(task, x0)
-        update = 0
+        _, start_cost = rec.start(task, x0)
+        update, stalled, run_best = 0, 0, start_cost
         while (
             rec.best_cost >= stop.threshold
             and update < stop.max_updates
@@ -68,10 +64,14 @@ class CMAES(SettingsFromFields):
             rec.seen(space.clamp(xs), costs)
             assert rec.best_params is not None
             rec.record(update, rec.best_cost, costs, rec.best_params)
-            if es.stop() or self._stalled(rec):
-                # Restart around the best point with a fresh seed (a simple restart strategy).
+            stalled = 0 if costs.min() < 0.99 * run_best else stalled + 1
+            run_best = min(run_best, float(costs.min()))
+            if es.stop() or stalled >= self.patience:
+                # Restart from the start with a fresh seed: restarting around the best point
+                # falls back into the basin the run collapsed on (bench/learning.py, Exp3).
                 restarts += 1
                 options["seed"] = seed + 1 + 7919 * restarts
-                es = cma.CMAEvolutionStrategy(list(rec.best_params), self.sigma0, options)
+                es = cma.CMAEvolutionStrategy(list(x0), self.sigma0, options)
+                stalled, run_best = 0, start_cost
         assert rec.best_params is not None
         return rec.result(self.name, self.settings(), seed, rec.best_params, rec.best_cost, stop)

@@ -16,7 +16,7 @@ from primitives.learners.base import (
     StopRule,
     probability_weights,
 )
-from primitives.task import LearningTask
+from primitives.task import Task
 from sim.robot import Array
 
 
@@ -40,7 +40,7 @@ class PI2(SettingsFromFields):
 
     def learn(
         self,
-        task: LearningTask,
+        task: Task,
         seed: int,
         stop: StopRule = DEFAULT_STOP,
         initial: Array | None = None,

@@ -1,0 +1,305 @@
+"""The robot's sensed world model: an occupancy grid in layers, and clearance queries for planners.
+
+Three layers, in the manner of a Nav2 costmap:
+
+- **static**: the arena walls and the obstacles the operator declared known. Its clearance is
+  exact at cell centres (true distances to the obstacles' geometry, not a rasterisation), so a
+  0.30 m corridor between known walls is 0.30 m wide in the model and the 0.15 m robot fits.
+  ``capsules_clear`` checks known geometry exactly too.
+- **sensed**: log-odds occupancy from the head's range readings (``domain.occupancy``: ray
+  clearing before marking, cone hits shared across the arc, clamped, thresholded).
+- **contact**: discs where a bumper touched something; they persist.
+
+Clearance is the distance to the nearest obstacle surface or wall: exact for the static layer,
+from a Euclidean distance transform of the sensed and contact cells (minus half a cell, to stay
+conservative) for the rest, combined by minimum and saturated at ``max_clearance``.
+
+**Unknown cells are traversable.** The only range sensors sit on the head, so most of the space
+around the body, and all of it behind the robot, is never seen; a pessimistic model (unknown =
+occupied) would forbid nearly every motion and every plan through unexplored space. Instead the
+model is optimistic: a cell is an obstacle only when a known obstacle, repeated consistent
+readings or a contact say so, and the executor replans when new evidence appears on its path.
+
+``version`` increments whenever occupancy in any layer changes (not on every reading), so planners
+can cache what they derive from the model.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy import ndimage
+
+from domain.occupancy import Grid, RangeObservation, SensedLayer, WorldModelSettings
+from sim.obstacles import Circle, Obstacle
+from sim.robot import Array
+from sim.world import Bounds
+
+__all__ = ["RangeObservation", "WorldModel", "WorldModelSettings"]
+
+
+class WorldModel:
+    """Occupancy layers over the arena and clearance queries on them."""
+
+    def __init__(
+        self,
+        bounds: Bounds,
+        known: Sequence[Obstacle] = (),
+        settings: WorldModelSettings = WorldModelSettings(),  # noqa: B008 (frozen, shared safely)
+    ) -> None:
+        self.bounds = bounds
+        self.settings = settings
+        self.grid = Grid(bounds, settings.resolution)
+        self.version = 0
+        self.known: list[Obstacle] = []
+        cap = settings.max_clearance
+        walls = bounds.wall_clearance(self._centre_grid())
+        self._known_distance = np.full(self.grid.shape, cap)  # to known obstacles only
+        self._static = np.clip(walls, 0.0, cap)  # walls and known obstacles
+        self._sensed = SensedLayer(self.grid, settings)
+        self._contact = np.zeros(self.grid.shape, dtype=bool)
+        self._cache: dict[str, Any] = {}
+        self._cache_version = -1
+        for obstacle in known:
+            self.add_known(obstacle)
+
+    # --- layers -------------------------------------------------------------------------------
+
+    def integrate(self, observations: Iterable[RangeObservation]) -> list[tuple[float, float]]:
+        """Update the sensed layer with range readings; return the world centres of the cells
+        that became occupied (NaN readings are dropouts and change nothing)."""
+        became, ceased = self._sensed.integrate(observations, self._static)
+        if became.size or ceased.size:
+            self.version += 1
+        return [(float(x), float(y)) for x, y in self.grid.centres(became)]
+
+    def add_contact(self, point: tuple[float, float]) -> None:
+        """Mark a disc of ``contact_radius`` (at least the cell holding ``point``) occupied for good."""
+        x, y = point
+        near = np.hypot(self._centre_grid()[..., 0] - x, self._centre_grid()[..., 1] - y)
+        disc = near <= self.settings.contact_radius
+        i, j = self.grid.cell_of(x, y)
+        if self.grid.inside(i, j):
+            disc[i, j] = True
+        if np.any(disc & ~self._contact):
+            self._contact |= disc
+            self.version += 1
+
+    def add_known(self, obstacle: Obstacle) -> None:
+        """Add a known obstacle to the static layer (exact distances within ``max_clearance``)."""
+        self.known.append(obstacle)
+        block = _distance_block(obstacle, self.grid, self.settings.max_clearance)
+        if block is None:
+            return
+        (i0, i1, j0, j1), dist = block
+        window = self._known_distance[i0:i1, j0:j1]
+        if np.any(dist < window):
+            np.minimum(window, dist, out=window)
+            np.minimum(self._static[i0:i1, j0:j1], dist, out=self._static[i0:i1, j0:j1])
+            self.version += 1
+
+    def occupied(self) -> NDArray[np.bool_]:
+        """Combined occupancy ``[nx, ny]``: known obstacles within half a cell of the centre,
+        sensed cells over the threshold, contact discs."""
+        static = self._known_distance < 0.5 * self.grid.resolution - 1e-9
+        out: NDArray[np.bool_] = static | self._sensed.occupied | self._contact
+        return out
+
+    def sensed_occupied(self) -> NDArray[np.bool_]:
+        """The sensed layer alone, thresholded (a copy)."""
+        return self._sensed.occupied.copy()
+
+    def contact_occupied(self) -> NDArray[np.bool_]:
+        """The contact layer alone (a copy)."""
+        return self._contact.copy()
+
+    @property
+    def log_odds(self) -> Array:
+        """The sensed layer's log-odds (read-only view)."""
+        view = self._sensed.log_odds.view()
+        view.flags.writeable = False
+        return view
+
+    # --- clearance ----------------------------------------------------------------------------
+
+    def clearance(self) -> Array:
+        """Metres from each cell centre to the nearest obstacle surface or wall (conservative,
+        saturated at ``max_clearance``); cached until ``version`` changes. Do not modify it."""
+        cached = self._cached("clearance")
+        if cached is None:
+            cached = self._store("clearance", np.minimum(self._static, self._dynamic_clearance()))
+        out: Array = cached
+        return out
+
+    def clearance_at(self, points: Array) -> Array:
+        """Clearance at world points ``[..., 2]``: bilinear between cell centres, exact to the
+        walls (negative outside the bounds)."""
+        pts = np.asarray(points, dtype=float)
+        inner = self._interpolate(self.clearance(), pts)
+        out: Array = np.minimum(inner, self.bounds.wall_clearance(pts))
+        return out
+
+    def capsules_clear(
+        self, starts: Array, ends: Array, radii: Array, margin: float = 0.0
+    ) -> NDArray[np.bool_]:
+        """Whether every capsule keeps ``margin`` clear, per leading index of ``starts`` and
+        ``ends`` ``[..., C, 2]`` (radii ``[C]``). Walls and known obstacles are checked exactly;
+        sensed and contact cells by clearance samples every half cell along each axis."""
+        a, b = np.asarray(starts, dtype=float), np.asarray(ends, dtype=float)
+        lead = a.shape[:-2]
+        a, b = a.reshape(-1, *a.shape[-2:]), b.reshape(-1, *b.shape[-2:])  # [B, C, 2]
+        need = np.asarray(radii, dtype=float) + margin  # [C]
+        walls = np.minimum(self.bounds.wall_clearance(a), self.bounds.wall_clearance(b))
+        ok: NDArray[np.bool_] = np.all(walls >= need, axis=-1)  # wall distance is linear: ends
+        if self._has_dynamic():
+            ok &= self._samples_clear(a, b, need)
+        for obstacle in self.known:
+            _known_clear(obstacle, a, b, need, ok)
+        return ok.reshape(lead)
+
+    def component_labels(self, min_clearance: float) -> NDArray[np.int32]:
+        """Connected regions (4-connectivity, 1..n; 0 = too tight) of cells whose clearance is at
+        least ``min_clearance``; cached per threshold until ``version`` changes."""
+        key = f"labels:{min_clearance!r}"
+        cached = self._cached(key)
+        if cached is None:
+            labels, _ = ndimage.label(self.clearance() >= min_clearance)
+            cached = self._store(key, labels.astype(np.int32))
+        out: NDArray[np.int32] = cached
+        return out
+
+    def connected(
+        self, a: tuple[float, float], b: tuple[float, float], min_clearance: float
+    ) -> bool:
+        """Whether cells of clearance >= ``min_clearance`` join the cells holding ``a`` and ``b``."""
+        ia, ib = self.grid.cell_of(*a), self.grid.cell_of(*b)
+        if not (self.grid.inside(*ia) and self.grid.inside(*ib)):
+            return False
+        labels = self.component_labels(min_clearance)
+        return bool(labels[ia] != 0 and labels[ia] == labels[ib])
+
+    # --- geometry and export ------------------------------------------------------------------
+
+    def cell_of(self, x: float, y: float) -> tuple[int, int]:
+        """The cell ``(i, j)`` holding a world point (may lie outside the grid)."""
+        return self.grid.cell_of(x, y)
+
+    def centre_of(self, i: int, j: int) -> tuple[float, float]:
+        """The world centre of cell ``(i, j)``."""
+        return self.grid.centre_of(i, j)
+
+    def to_dict(self) -> dict[str, Any]:
+        """A compact form for the API and viewer: grid geometry, sensed and contact cell centres."""
+
+        def cells(mask: NDArray[np.bool_]) -> list[list[float]]:
+            centres = self.grid.centres(np.flatnonzero(mask))
+            return np.round(centres, 4).tolist()  # type: ignore[no-any-return]
+
+        return {
+            "resolution": self.grid.resolution,
+            "origin": [self.grid.origin[0], self.grid.origin[1]],
+            "size": [self.grid.nx, self.grid.ny],
+            "version": self.version,
+            "sensed": cells(self._sensed.occupied),
+            "contact": cells(self._contact),
+        }
+
+    # --- internals ----------------------------------------------------------------------------
+
+    def _centre_grid(self) -> Array:
+        x, y = np.meshgrid(self.grid.xs, self.grid.ys, indexing="ij")
+        return np.stack([x, y], axis=-1)
+
+    def _has_dynamic(self) -> bool:
+        return bool(np.any(self._sensed.occupied) or np.any(self._contact))
+
+    def _dynamic_clearance(self) -> Array:
+        """Clearance to sensed and contact cells: distance between centres minus half a cell."""
+        cap = self.settings.max_clearance
+        if not self._has_dynamic():
+            return np.full(self.grid.shape, cap)
+        free = ~(self._sensed.occupied | self._contact)
+        res = self.grid.resolution
+        dist = ndimage.distance_transform_edt(free) * res - 0.5 * res
+        out: Array = np.clip(dist, 0.0, cap)
+        return out
+
+    def _samples_clear(self, a: Array, b: Array, need: Array) -> NDArray[np.bool_]:
+        step = 0.5 * self.grid.resolution
+        length = float(np.max(np.linalg.norm(b - a, axis=-1), initial=0.0))
+        t = np.linspace(0.0, 1.0, max(2, int(np.ceil(length / step)) + 1))
+        pts = a[..., None, :] + t[:, None] * (b - a)[..., None, :]  # [..., C, n, 2]
+        dynamic = self._cached("dynamic")
+        if dynamic is None:
+            dynamic = self._store("dynamic", self._dynamic_clearance())
+        values = self._interpolate(dynamic, pts)
+        out: NDArray[np.bool_] = np.all(values >= need[:, None], axis=(-2, -1))
+        return out
+
+    def _interpolate(self, grid: Array, pts: Array) -> Array:
+        res = self.grid.resolution
+        u = (pts[..., 0] - self.grid.origin[0]) / res - 0.5
+        v = (pts[..., 1] - self.grid.origin[1]) / res - 0.5
+        flat = ndimage.map_coordinates(
+            grid, [u.reshape(-1), v.reshape(-1)], order=1, mode="nearest"
+        )
+        out: Array = flat.reshape(u.shape)
+        return out
+
+    def _cached(self, key: str) -> Any:
+        if self._cache_version != self.version:
+            self._cache.clear()
+            self._cache_version = self.version
+        return self._cache.get(key)
+
+    def _store(self, key: str, value: Any) -> Any:
+        self._cache[key] = value
+        return value
+
+
+def _distance_block(
+    obstacle: Obstacle, grid: Grid, cap: float
+) -> tuple[tuple[int, int, int, int], Array] | None:
+    """Exact distances (0 inside) from the cell centres within ``cap`` of the obstacle's bounding
+    box to the obstacle, capped at ``cap``; ``None`` if no centre is that close."""
+    x0, y0, x1, y1 = obstacle.bounding_box()
+    i0, i1 = np.searchsorted(grid.xs, [x0 - cap, x1 + cap], side="left")
+    j0, j1 = np.searchsorted(grid.ys, [y0 - cap, y1 + cap], side="left")
+    if i0 >= i1 or j0 >= j1:
+        return None
+    x, y = np.meshgrid(grid.xs[i0:i1], grid.ys[j0:j1], indexing="ij")
+    pts = np.stack([x, y], axis=-1)
+    if isinstance(obstacle, Circle):
+        dist = np.hypot(x - obstacle.x, y - obstacle.y) - obstacle.radius
+    else:
+        ea, eb = obstacle.edges
+        dist = _point_edges_distance(pts, ea, eb)
+        dist = np.where(obstacle.contains(pts), 0.0, dist)
+    return (int(i0), int(i1), int(j0), int(j1)), np.clip(dist, 0.0, cap)
+
+
+def _point_edges_distance(pts: Array, ea: Array, eb: Array) -> Array:
+    """Distance from points ``[..., 2]`` to the nearest of the edges ``ea-eb`` ``[E, 2]``."""
+    best = np.full(pts.shape[:-1], np.inf)
+    for a, b in zip(ea, eb, strict=True):  # a loop over edges, each vectorised over cells
+        ab = b - a
+        s = np.clip(((pts - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0, 1.0)
+        np.minimum(best, np.linalg.norm(pts - a - s[..., None] * ab, axis=-1), out=best)
+    return best
+
+
+def _known_clear(
+    obstacle: Obstacle, a: Array, b: Array, need: Array, ok: NDArray[np.bool_]
+) -> None:
+    """Clear ``ok`` (``[B]``) where a capsule of ``a-b`` ``[B, C, 2]`` comes within ``need`` of
+    the obstacle; only capsules whose bounding boxes come near it are measured."""
+    x0, y0, x1, y1 = obstacle.bounding_box()
+    lo, hi = np.minimum(a, b) - need[:, None], np.maximum(a, b) + need[:, None]
+    near = (lo[..., 0] <= x1) & (hi[..., 0] >= x0) & (lo[..., 1] <= y1) & (hi[..., 1] >= y0)
+    rows = np.flatnonzero(np.any(near, axis=-1) & ok)
+    if rows.size:
+        gap = obstacle.segment_clearance(a[rows], b[rows])  # [R, C]
+        ok[rows[np.any(gap < need, axis=-1)]] = False
