@@ -142,6 +142,18 @@ class WorldModel:
         out: Array = np.minimum(inner, self.bounds.wall_clearance(pts))
         return out
 
+    def static_clearance_at(self, points: Array) -> Array:
+        """Clearance to the walls and known obstacles alone (what the operator's map says)."""
+        pts = np.asarray(points, dtype=float)
+        inner = self._interpolate(self._static, pts)
+        out: Array = np.minimum(inner, self.bounds.wall_clearance(pts))
+        return out
+
+    @property
+    def static_version(self) -> int:
+        """Changes when a known obstacle is added."""
+        return len(self.known)
+
     def capsules_clear(
         self, starts: Array, ends: Array, radii: Array, margin: float = 0.0
     ) -> NDArray[np.bool_]:
