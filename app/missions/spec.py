@@ -103,6 +103,21 @@ class DeformEvent(Strict):
     joints: tuple[Joint, Joint, Joint]
 
 
+class ExpectSpec(Strict):
+    """What a benchmark mission should end with; the runner ignores it."""
+
+    status: Annotated[
+        Literal["succeeded", "failed", "cancelled"], Field(description="expected terminal status")
+    ]
+    reason: Annotated[
+        str | None,
+        Field(max_length=200, description="a substring of the expected terminal reason"),
+    ] = None
+    fast: Annotated[
+        bool, Field(description="cheap enough (< ~5 s wall) for the test suite to run it")
+    ] = False
+
+
 class PlannerSpec(Strict):
     domain: Literal["navigation", "reactive"] = "navigation"
     search: Literal["gbf", "astar", "wastar", "ehs", "bfs"] = "gbf"
@@ -179,6 +194,9 @@ class MissionSpec(Strict):
     seed: Annotated[int, Field(ge=0, le=2**32 - 1)] = 0
     time_limit: Annotated[float, Field(allow_inf_nan=False, gt=0, le=36_000)] = 1800.0
     max_replans: Annotated[int, Field(ge=0, le=10_000)] = 500
+    expect: Annotated[
+        ExpectSpec | None, Field(description="the expected outcome (benchmarks); not used to run")
+    ] = None
 
     @model_validator(mode="after")
     def _consistent(self) -> MissionSpec:
