@@ -20,7 +20,7 @@ from py_trees.common import Access, Status
 
 from app.executor.context import GoalState, MissionContext, MissionResult
 from app.executor.tree import build_tree, snapshot
-from app.missions.spec import MissionSpec
+from app.missions.spec import DeformEvent, MissionSpec
 from domain.knowledge import Goal, WorldKnowledge
 from domain.navigation import NavigationPlanner
 from domain.replanner import Replanner
@@ -28,7 +28,7 @@ from primitives.library import Library
 from primitives.shapes import classify_shape
 from primitives.steering import Steering
 from sim.controls import FixedShape
-from sim.events import Deformation
+from sim.events import Deformation, SensorDropout
 from sim.sensors import RangeSensor, SensorSuite, range_ring
 from sim.simulator import Simulator
 from sim.world import World
@@ -86,7 +86,13 @@ class MissionRunner:
         )
         ir = RangeSensor("ir", 0.0, spec.sensors.ir_range, math.radians(10), 3, spec.sensors.noise)
         sensors = SensorSuite(range_sensors=(ir, *ring))
-        events = tuple(Deformation(e.t, e.joints) for e in spec.events)
+        # Dropouts are scheduled like deformations; the simulator reads dropped sensors as NaN.
+        events = tuple(
+            Deformation(e.t, e.joints)
+            if isinstance(e, DeformEvent)
+            else SensorDropout(e.t, e.duration, tuple(e.sensors))
+            for e in spec.events
+        )
         world = World(spec.bounds.bounds(), obstacles)
         try:
             sim = Simulator(world, sensors=sensors, events=events, dt=SIM_DT)
