@@ -81,6 +81,15 @@ def labels_near(path: Path, x: float, y: float) -> set[int]:
     return {int(v) for v in near.ravel() if v}
 
 
+def fits_straight(w: World, x: float, y: float, headings: int = 72) -> bool:
+    """Whether the straight body, head point at (x, y), is clear at some heading."""
+    for psi in np.linspace(-np.pi, np.pi, headings, endpoint=False):
+        fp = footprint(np.array([x, y, psi]), np.zeros(3))
+        if w.contact(fp) is None:
+            return True
+    return False
+
+
 def test_enough_hard_missions_covering_every_kind() -> None:
     specs = [spec(p) for p in HARD]
     assert len(specs) >= 17
@@ -130,5 +139,6 @@ def test_expected_outcome_matches_the_free_space(path: Path) -> None:
             gap = float(clearance(w, np.array([[g.x, g.y]]))[0])
             assert gap >= GOAL_CLEARANCE - 1e-9, f"goal {i} is {gap:.3f} m from an obstacle"
             assert reachable[i], f"goal {i} is cut off from the start"
+            assert fits_straight(w, g.x, g.y), f"goal {i}: the straight body fits no heading"
     elif s.expect.reason == "unreachable":
         assert not all(reachable), "every goal is reachable after all"
