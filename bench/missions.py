@@ -21,6 +21,7 @@ from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from app.executor.runner import MissionRunner
 from app.missions.spec import MissionSpec, load_mission
@@ -192,6 +193,7 @@ def run_all(jobs: list[Job], workers: int, cap: float) -> list[Row]:
     rows: dict[int, Row] = {}
     todo = list(range(len(jobs)))
     stuck: list[ProcessPoolExecutor] = []
+    leftovers: list[Any] = []  # worker processes of pools with a stuck worker
     while todo:
         pool = ProcessPoolExecutor(max_workers=workers)
         futures: dict[int, Future[Row]] = {i: pool.submit(run_job, jobs[i]) for i in todo}
@@ -202,7 +204,9 @@ def run_all(jobs: list[Job], workers: int, cap: float) -> list[Row]:
                 rows[i] = futures[i].result(timeout=cap * job.repeat + GRACE)
             except TimeoutError:
                 rows[i] = Row(job.set, Path(job.path).stem, "?", "timeout", wall_time=cap)
+                rows[i].reason = f"no answer within the cap + {GRACE:g} s (stuck in one tick)"
                 stuck.append(pool)
+                leftovers.extend((getattr(pool, "_processes", None) or {}).values())
             except BrokenProcessPool as exc:
                 rows[i] = Row(job.set, Path(job.path).stem, "?", f"error: worker died ({exc})")
                 broken = True
@@ -213,8 +217,8 @@ def run_all(jobs: list[Job], workers: int, cap: float) -> list[Row]:
             if broken:
                 break
         pool.shutdown(wait=not broken and pool not in stuck, cancel_futures=True)
-    for pool in stuck:  # only the processes this bench started
-        for process in list(getattr(pool, "_processes", {}).values()):
+    for process in leftovers:  # only processes this bench started, all work done by now
+        if process.is_alive():
             process.terminate()
     return [rows[i] for i in range(len(jobs))]
 
