@@ -1,41 +1,269 @@
-"""Model time / wall time per example mission, as fast as possible (DESIGN §8: >= 200x)."""
+"""Every mission of examples/ and examples/hard/, as fast as possible, checked against what it
+expects (DESIGN §8: accuracy, contacts, model time / wall time).
+
+    python -m bench.missions [--only PATTERN] [--noise SIGMA] [--repeat N] [--workers 2] [--cap 120]
+
+A mission is ``ok`` when it ends as its ``expect`` says (``examples/`` without one: succeeded)
+and, for a success, every goal is within its tolerance and nothing known was touched (known
+obstacles and the arena walls; hidden obstacles may be found by touch). Missions run in a pool
+of processes, each under a wall-clock cap; a crash or a timeout is a row, never the bench's end.
+"""
 
 from __future__ import annotations
 
+import argparse
+import fnmatch
+import statistics
+import sys
 import time
+import traceback
+from concurrent.futures import Future, ProcessPoolExecutor
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from app.executor.runner import MissionRunner
-from app.missions.spec import load_mission
-from primitives.library import load_bundled
+from app.missions.spec import MissionSpec, load_mission
+from primitives.library import Library, load_bundled
 from primitives.steering import Steering
 
+ROOT = Path(__file__).resolve().parents[1]
+SETS = {"examples": ROOT / "examples", "hard": ROOT / "examples" / "hard"}
+GRACE = 30.0  # wall seconds past the cap before the parent stops waiting for a stuck worker
 
-def main() -> None:
-    library = load_bundled()
-    steering = Steering(library)
-    print(
-        f"{'mission':<28}{'status':<11}{'goals':>6}{'max err [cm]':>13}{'collisions':>11}{'replans':>8}"
-        f"{'model [s]':>10}{'wall [s]':>9}{'ratio':>8}"
-    )
-    ratios = []
-    for path in sorted(Path("examples").glob("*.json")):
+
+@dataclass(frozen=True)
+class Job:
+    set: str
+    path: str
+    noise: float | None
+    repeat: int
+    cap: float
+
+
+@dataclass
+class Row:
+    """One mission's outcome: one line of the table."""
+
+    set: str
+    name: str
+    expected: str
+    status: str
+    ok: bool = False
+    reached: int = 0
+    goals: int = 0
+    max_error_cm: float = float("nan")
+    contacts: int = 0
+    known_contacts: int = 0
+    replans: int = 0
+    model_time: float = 0.0
+    wall_time: float = float("nan")
+    reason: str = ""
+
+    @property
+    def ratio(self) -> float:
+        if self.status.startswith(("error", "timeout")) or not self.wall_time > 0:
+            return float("nan")
+        return self.model_time / self.wall_time
+
+
+class Deadline:
+    """A cancel flag that sets itself once ``cap`` wall seconds have passed (the runner polls it
+    every control interval, so a slow mission ends cleanly instead of holding a worker)."""
+
+    def __init__(self, cap: float) -> None:
+        self.until = time.perf_counter() + cap
+        self.fired = False
+
+    def is_set(self) -> bool:
+        self.fired = self.fired or time.perf_counter() > self.until
+        return self.fired
+
+
+_LIBRARY: list[tuple[Library, Steering]] = []  # one per worker process, built on first use
+
+
+def _library() -> tuple[Library, Steering]:
+    if not _LIBRARY:
+        library = load_bundled()
+        _LIBRARY.append((library, Steering(library)))
+    return _LIBRARY[0]
+
+
+def expected_of(spec: MissionSpec) -> tuple[str, str | None]:
+    """The expected status and reason substring (an example without ``expect`` should succeed)."""
+    if spec.expect is None:
+        return "succeeded", None
+    return spec.expect.status, spec.expect.reason
+
+
+def run_job(job: Job) -> Row:
+    """Run one mission ``job.repeat`` times (best wall time) in this process; never raises."""
+    path = Path(job.path)
+    row = Row(job.set, path.stem, "?", "error")
+    try:
         spec = load_mission(path)
+        if job.noise is not None:
+            data = spec.model_dump(by_alias=True)
+            data["sensors"]["noise"] = job.noise
+            spec = MissionSpec.model_validate(data)
+        status, reason = expected_of(spec)
+        row.name = spec.name
+        row.expected = status + (f":{reason}" if reason else "")
+        library, steering = _library()
         best = float("inf")
-        for _ in range(3):  # best of three: the machine's noise is not the mission's cost
+        result = None
+        for _ in range(job.repeat):
+            flag = Deadline(job.cap)
             t0 = time.perf_counter()
-            result = MissionRunner(spec, library, steering).run()
+            runner = MissionRunner(spec, library, steering, cancel=flag)
+            result = runner.run()
             best = min(best, time.perf_counter() - t0)
+            if flag.fired:
+                break
+        assert result is not None  # repeat >= 1
+        row.wall_time = best
+        row.model_time = result.model_time
+        row.status = "timeout" if flag.fired else result.status
+        row.reason = f"over the {job.cap:g} s wall cap" if flag.fired else result.reason
+        row.goals = len(result.goals)
+        row.reached = sum(g.reached for g in result.goals)
         errors = [g.error for g in result.goals if g.error is not None]
-        worst = max(errors) * 100 if errors else float("nan")
-        ratio = result.model_time / best
-        ratios.append(ratio)
-        print(
-            f"{spec.name:<28}{result.status:<11}{len(result.goals):>6}{worst:>13.1f}{result.collisions:>11}"
-            f"{len(result.replans):>8}{result.model_time:>10.0f}{best:>9.2f}{ratio:>7.0f}x"
+        row.max_error_cm = max(errors) * 100 if errors else float("nan")
+        row.contacts = result.collisions
+        row.replans = len(result.replans)
+        known = {i for i, o in enumerate(spec.obstacles) if o.known} | {-1}  # -1: the arena wall
+        row.known_contacts = sum(
+            1 for e in result.events if e["kind"] == "collision" and e.get("obstacle") in known
         )
-    print(f"minimum ratio {min(ratios):.0f}x, median {sorted(ratios)[len(ratios) // 2]:.0f}x")
+        met = row.status == status and (reason is None or reason in row.reason)
+        if status == "succeeded":
+            accurate = all(
+                g.reached and g.error is not None and g.error <= g.tolerance for g in result.goals
+            )
+            met = met and accurate and row.known_contacts == 0
+        row.ok = met
+    except BaseException as exc:  # the bench reports a crash, it does not die of it
+        row.status = f"error: {type(exc).__name__}: {exc}".splitlines()[0][:200]
+        traceback.print_exc(limit=-3, file=sys.stderr)  # where it broke, for whoever fixes it
+        row.ok = False
+    return row
+
+
+def missions(only: str | None) -> list[Job]:
+    """Jobs for every mission file of every set, filtered by ``--only`` (glob or substring)."""
+    found = []
+    for name, folder in SETS.items():
+        for path in sorted(folder.glob("*.json")):
+            key = f"{name}/{path.stem}"
+            if (
+                only is None
+                or only in key
+                or any(fnmatch.fnmatch(k, only) for k in (key, path.stem))
+            ):
+                found.append((name, path))
+    return [Job(s, str(p), None, 1, 0.0) for s, p in found]
+
+
+HEADER = (
+    f"{'set':<9}{'mission':<41}{'expected':<21}{'status':<11}{'ok':<4}{'goals':>6}"
+    f"{'err [cm]':>9}{'contacts':>9}{'known':>6}{'replans':>8}{'model [s]':>10}{'wall [s]':>9}"
+    f"{'ratio':>8}"
+)
+
+
+def line(row: Row) -> str:
+    status = row.status if len(row.status) <= 10 else row.status[:10]
+    return (
+        f"{row.set:<9}{row.name[:40]:<41}{row.expected[:20]:<21}{status:<11}"
+        f"{'yes' if row.ok else 'NO':<4}{f'{row.reached}/{row.goals}':>6}"
+        f"{row.max_error_cm:>9.1f}{row.contacts:>9}{row.known_contacts:>6}{row.replans:>8}"
+        f"{row.model_time:>10.0f}{row.wall_time:>9.2f}{row.ratio:>7.0f}x"
+    )
+
+
+def run_all(jobs: list[Job], workers: int, cap: float) -> list[Row]:
+    """Run the jobs in a pool of ``workers`` processes, printing each row in order as it ends.
+
+    A worker that dies takes the pool with it: the rows it held become errors and a fresh pool
+    runs the rest. A worker stuck past the cap (inside one tick) is reported ``timeout`` and
+    its process ended when the bench finishes.
+    """
+    rows: dict[int, Row] = {}
+    todo = list(range(len(jobs)))
+    stuck: list[ProcessPoolExecutor] = []
+    leftovers: list[Any] = []  # worker processes of pools with a stuck worker
+    while todo:
+        pool = ProcessPoolExecutor(max_workers=workers)
+        futures: dict[int, Future[Row]] = {i: pool.submit(run_job, jobs[i]) for i in todo}
+        broken = False
+        for i in list(todo):
+            job = jobs[i]
+            try:
+                rows[i] = futures[i].result(timeout=cap * job.repeat + GRACE)
+            except TimeoutError:
+                rows[i] = Row(job.set, Path(job.path).stem, "?", "timeout", wall_time=cap)
+                rows[i].reason = f"no answer within the cap + {GRACE:g} s (stuck in one tick)"
+                stuck.append(pool)
+                leftovers.extend((getattr(pool, "_processes", None) or {}).values())
+            except BrokenProcessPool as exc:
+                rows[i] = Row(job.set, Path(job.path).stem, "?", f"error: worker died ({exc})")
+                broken = True
+            except BaseException as exc:
+                rows[i] = Row(job.set, Path(job.path).stem, "?", f"error: {exc}")
+            todo.remove(i)
+            print(line(rows[i]), flush=True)
+            if broken:
+                break
+        pool.shutdown(wait=not broken and pool not in stuck, cancel_futures=True)
+    for process in leftovers:  # only processes this bench started, all work done by now
+        if process.is_alive():
+            process.terminate()
+    return [rows[i] for i in range(len(jobs))]
+
+
+def summary(rows: list[Row]) -> list[str]:
+    out = []
+    for name in SETS:
+        subset = [r for r in rows if r.set == name]
+        if subset:
+            passed = sum(r.ok for r in subset)
+            out.append(f"{name}: passed {passed}/{len(subset)}")
+    ratios = [r.ratio for r in rows if r.ratio == r.ratio]
+    if ratios:
+        out.append(
+            f"model/wall ratio over {len(ratios)} finished missions: median "
+            f"{statistics.median(ratios):.0f}x, minimum {min(ratios):.0f}x"
+        )
+    for r in rows:
+        if not r.ok:
+            why = r.status if r.status.startswith("error") else f"{r.status}: {r.reason}"
+            out.append(f"  not ok: {r.set}/{r.name}: {why[:200]}")
+    return out
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--only", help="missions whose set/name matches (glob or substring)")
+    parser.add_argument("--noise", type=float, help="override every range sensor's noise [m]")
+    parser.add_argument("--repeat", type=int, default=1, help="runs per mission, best wall time")
+    parser.add_argument("--workers", type=int, default=2, help="processes in the pool")
+    parser.add_argument("--cap", type=float, default=120.0, help="wall seconds per mission run")
+    args = parser.parse_args(argv)
+    if args.repeat < 1 or args.workers < 1 or not args.cap > 0:
+        parser.error("--repeat and --workers must be >= 1 and --cap > 0")
+    if args.noise is not None and not 0 <= args.noise <= 0.5:
+        parser.error("--noise must lie in [0, 0.5] m")
+    jobs = [Job(j.set, j.path, args.noise, args.repeat, args.cap) for j in missions(args.only)]
+    if not jobs:
+        print(f"no mission matches {args.only!r}", file=sys.stderr)
+        return 1
+    print(HEADER, flush=True)
+    rows = run_all(jobs, args.workers, args.cap)
+    print("\n".join(summary(rows)))
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -103,6 +104,50 @@ class DeformEvent(Strict):
     joints: tuple[Joint, Joint, Joint]
 
 
+class DropoutEvent(Strict):
+    """From ``t`` for ``duration`` model seconds the named sensors read nothing (data model only)."""
+
+    t: Annotated[float, Field(allow_inf_nan=False, ge=0, le=1e6, description="start, model s")]
+    type: Literal["dropout"]
+    sensors: Annotated[
+        list[str],
+        Field(
+            min_length=1,
+            max_length=64,
+            description='sensors that go silent: "ir", "ring0".."ring{N-1}" or "joints"',
+        ),
+    ]
+    duration: Annotated[
+        float, Field(allow_inf_nan=False, gt=0, le=1e6, description="how long, model s")
+    ]
+
+    @model_validator(mode="after")
+    def _names(self) -> DropoutEvent:
+        for name in self.sensors:
+            if name not in ("ir", "joints") and not _RING_NAME.fullmatch(name):
+                raise ValueError(f"sensors: unknown sensor {name!r}")
+        return self
+
+
+_RING_NAME = re.compile(r"ring(0|[1-9][0-9]?)")
+EventSpec = Annotated[DeformEvent | DropoutEvent, Field(discriminator="type")]
+
+
+class ExpectSpec(Strict):
+    """What a benchmark mission should end with; the runner ignores it."""
+
+    status: Annotated[
+        Literal["succeeded", "failed", "cancelled"], Field(description="expected terminal status")
+    ]
+    reason: Annotated[
+        str | None,
+        Field(max_length=200, description="a substring of the expected terminal reason"),
+    ] = None
+    fast: Annotated[
+        bool, Field(description="cheap enough (< ~5 s wall) for the test suite to run it")
+    ] = False
+
+
 class PlannerSpec(Strict):
     domain: Literal["navigation", "reactive"] = "navigation"
     search: Literal["gbf", "astar", "wastar", "ehs", "bfs"] = "gbf"
@@ -171,7 +216,7 @@ class MissionSpec(Strict):
     order: Literal["given", "any"] = "given"
     obstacles: Annotated[list[ObstacleSpec], Field(max_length=MAX_OBSTACLES)] = []
     bounds: BoundsSpec = BoundsSpec()
-    events: Annotated[list[DeformEvent], Field(max_length=MAX_EVENTS)] = []
+    events: Annotated[list[EventSpec], Field(max_length=MAX_EVENTS)] = []
     planner: PlannerSpec = PlannerSpec()
     sensors: SensorSpec = SensorSpec()
     chain: Annotated[list[ChainStep], Field(max_length=MAX_CHAIN)] = []
@@ -179,6 +224,9 @@ class MissionSpec(Strict):
     seed: Annotated[int, Field(ge=0, le=2**32 - 1)] = 0
     time_limit: Annotated[float, Field(allow_inf_nan=False, gt=0, le=36_000)] = 1800.0
     max_replans: Annotated[int, Field(ge=0, le=10_000)] = 500
+    expect: Annotated[
+        ExpectSpec | None, Field(description="the expected outcome (benchmarks); not used to run")
+    ] = None
 
     @model_validator(mode="after")
     def _consistent(self) -> MissionSpec:
@@ -188,6 +236,11 @@ class MissionSpec(Strict):
             raise ValueError("chain: give goals or a chain of primitives, not both")
         if isinstance(self.shape, str) and self.shape not in SHAPES:
             raise ValueError(f"shape: unknown {self.shape!r}; known: {', '.join(SHAPES)}")
+        for i, event in enumerate(self.events):
+            if isinstance(event, DropoutEvent):
+                for name in event.sensors:
+                    if name.startswith("ring") and int(name[4:]) >= self.sensors.ring:
+                        raise ValueError(f"events.{i}.sensors: no sensor {name!r}")
         bounds = self.bounds.bounds()
         obstacles = self.world_obstacles()
         if not bounds.contains(self.start.x, self.start.y):
