@@ -120,8 +120,12 @@ class MotionTable:
     points: list[Array] = field(init=False)  # per bin: swept sample points rel. to the centroid
     needs: list[Array] = field(init=False)  # per bin: clearance each point needs
     segments: list[NDArray[np.int64]] = field(init=False)  # per bin: start index per motion
+    names: list[str] = field(init=False)  # PDDL names of the motions' primitives
 
     def __post_init__(self) -> None:
+        from domain.lattice_task import primitive_name  # names only; no import cycle at load
+
+        self.names = [primitive_name(m.primitive) for m in self.motions]
         self.offset = centroid_offset(self.joints, self.geometry)
         reach = self.geometry.body_length
         K, r = self.settings.orientations, self.settings.resolution

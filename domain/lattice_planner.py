@@ -228,7 +228,10 @@ class LatticePlanner:
 
     def _search(self, task: LatticeTask, distances: Array) -> PlanResult:
         t0 = time.monotonic()
-        step = max(float(np.hypot(*m.end[:2])) for m in task.table.motions)
+        step = max(
+            (float(np.hypot(*m.end[:2])) for m in task.table.motions if abs(m.end[2]) < 1e-3),
+            default=0.25,
+        )
         try:
             if self.heuristic == "lattice":
                 h: Any = LatticeHeuristic(task, distances, max(step, 1e-3))

@@ -90,22 +90,20 @@ class LatticeTask(Task):  # type: ignore[misc]
     def is_near(self, key: Key) -> bool:
         return math.dist(self.head(key), self.goal) <= self.reach
 
-    def valid_motions(self, key: Key) -> list[tuple[Key, str]]:
-        """The motions whose swept footprint is clear from ``key``, with where they lead."""
+    def valid_motions(self, key: Key) -> list[tuple[Key, int]]:
+        """The motions (indices) whose swept footprint is clear from ``key``, with where they
+        lead."""
         i, j, k = key
         t = self.table
         centre = self.grid.centre(i, j)
         margin = self.start_margin if key == self.start_key else self.margin
         ok_points = self.clearance(centre + t.points[k]) >= t.needs[k] + margin
         ok = np.logical_and.reduceat(ok_points, t.segments[k])
-        out = []
-        for m in np.flatnonzero(ok):
-            di, dj, dk = t.deltas[k, m]
-            ni, nj = i + int(di), j + int(dj)
-            if self.grid.inside(ni, nj):
-                nk = (k + int(dk)) % self.grid.settings.orientations
-                out.append(((ni, nj, nk), t.motions[m].primitive))
-        return out
+        d = t.deltas[k]
+        ni, nj = i + d[:, 0], j + d[:, 1]
+        ok &= (ni >= 0) & (ni < self.grid.nx) & (nj >= 0) & (nj < self.grid.ny)
+        nk = (k + d[:, 2]) % self.grid.settings.orientations
+        return [((int(ni[m]), int(nj[m]), int(nk[m])), int(m)) for m in np.flatnonzero(ok)]
 
     # -- pyperplan's Task interface -----------------------------------------------------------
     def get_successor_states(self, state: frozenset[Fact]) -> list[tuple[Operator, frozenset[Fact]]]:
@@ -126,16 +124,17 @@ class LatticeTask(Task):  # type: ignore[misc]
                 f"(visit {state_name(number)} g{self.goal_index})", [here], [self.goal_fact], []
             )
             succ.append((op, state | {self.goal_fact}))
+        fresh = number not in self.edges
         edges = self.edges.setdefault(number, [])
-        known = {(b, p) for b, p in edges}
-        for nkey, primitive in self.valid_motions(key):
+        names = self.table.names
+        for nkey, m in self.valid_motions(key):
             b = self.grid.encode(nkey)
             if b == number:
                 continue
-            if (b, primitive) not in known:
-                edges.append((b, primitive))
+            if fresh:
+                edges.append((b, self.table.motions[m].primitive))
             there = self.fact(b)
-            name = f"(move {state_name(number)} {state_name(b)} {primitive_name(primitive)})"
+            name = f"(move {state_name(number)} {state_name(b)} {names[m]})"
             succ.append((Operator(name, [here], [there], [here]), frozenset([there])))
         return succ
 
@@ -171,11 +170,28 @@ class LatticeTask(Task):  # type: ignore[misc]
 
 
 class LatticeHeuristic(Heuristic):  # type: ignore[misc]
-    """Footprint-aware 2-D distance to the goal in moves of ``step`` metres (0 once visited)."""
+    """Footprint-aware 2-D distance to the goal in moves of ``step`` metres (0 once visited),
+    plus, where the way is narrow, how far the body axis is from the way's direction (so a
+    greedy search lines the body up with a corridor instead of trying every heading at its
+    mouth; a tie-breaker of at most ``ALIGN_WEIGHT`` moves)."""
+
+    ALIGN_WEIGHT = 2.0
+    NARROW = 0.5  # metres of clearance below which a cell counts as narrow
 
     def __init__(self, task: LatticeTask, distances: Array, step: float) -> None:
         self.task, self.distances, self.step = task, distances, step
         self.reach = float(np.linalg.norm(task.table.offset))
+        finite = np.where(np.isfinite(distances), distances, np.nanmax(np.where(np.isfinite(distances), distances, 0)) + 1.0)
+        gx, gy = np.gradient(finite)
+        self.way = np.arctan2(-gy, -gx)  # direction of steepest descent: along the way
+        grid = task.grid
+        r = grid.settings.resolution
+        xs = grid.bounds.xmin + (np.arange(grid.nx) + 0.5) * r
+        ys = grid.bounds.ymin + (np.arange(grid.ny) + 0.5) * r
+        cx, cy = np.meshgrid(xs, ys, indexing="ij")
+        centres = np.stack([cx.ravel(), cy.ravel()], -1)
+        self.narrow = (task.clearance(centres) < self.NARROW).reshape(grid.nx, grid.ny)
+        self.turn_step = grid.settings.step
 
     def __call__(self, node: Any) -> float:
         state = node.state
@@ -184,8 +200,13 @@ class LatticeHeuristic(Heuristic):  # type: ignore[misc]
         number = self.task.at(state)
         if number is None:
             return math.inf
-        i, j, _ = self.task.grid.decode(number)
+        i, j, k = self.task.grid.decode(number)
         d = float(self.distances[i, j])
         if not math.isfinite(d):
             return math.inf
-        return max(0.0, d - self.reach) / self.step + 1.0
+        h = max(0.0, d - self.reach) / self.step + 1.0
+        if self.narrow[i, j]:
+            # The body axis (either way along it) against the way's direction.
+            off = abs(math.remainder(k * self.turn_step - float(self.way[i, j]), math.pi))
+            h += self.ALIGN_WEIGHT * off / (math.pi / 2)
+        return h

@@ -13,7 +13,14 @@ import re
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from primitives.shapes import SHAPES, shape_named
 from sim.obstacles import Obstacle, obstacle_from_dict
@@ -121,12 +128,13 @@ class DropoutEvent(Strict):
         float, Field(allow_inf_nan=False, gt=0, le=1e6, description="how long, model s")
     ]
 
-    @model_validator(mode="after")
-    def _names(self) -> DropoutEvent:
-        for name in self.sensors:
+    @field_validator("sensors")
+    @classmethod
+    def _names(cls, sensors: list[str]) -> list[str]:
+        for name in sensors:
             if name not in ("ir", "joints") and not _RING_NAME.fullmatch(name):
-                raise ValueError(f"sensors: unknown sensor {name!r}")
-        return self
+                raise ValueError(f"unknown sensor {name!r} (ir, ring0..ring{{N-1}}, joints)")
+        return sensors
 
 
 _RING_NAME = re.compile(r"ring(0|[1-9][0-9]?)")
@@ -154,7 +162,15 @@ class PlannerSpec(Strict):
     heuristic: Literal["roadmap", "hff", "hadd", "hmax", "lmcut", "landmark", "blind"] = "roadmap"
     time_limit: Annotated[float, Field(allow_inf_nan=False, gt=0, le=120)] = 5.0
     spacing: Annotated[float, Field(allow_inf_nan=False, ge=0.1, le=5)] = 0.5
-    margin: Annotated[float, Field(allow_inf_nan=False, ge=0, le=2)] = 0.2
+    margin: Annotated[
+        float,
+        Field(
+            allow_inf_nan=False,
+            ge=0,
+            le=0.2,
+            description="metres the planned swept footprint keeps from anything known or sensed",
+        ),
+    ] = 0.02
 
 
 class SensorSpec(Strict):
@@ -297,5 +313,8 @@ def parse_mission(text: str, source: str = "mission") -> MissionSpec:
         return MissionSpec.model_validate(data)
     except ValidationError as exc:
         first = exc.errors()[0]
-        where = ".".join(str(p) for p in first["loc"]) or "mission"
+        loc = first["loc"]
+        # The events union's tag ("deform", "dropout") is not a field: events.0.joints, as before.
+        where = ".".join(str(p) for i, p in enumerate(loc) if not (i == 2 and loc[0] == "events"))
+        where = where or "mission"
         raise MissionFileError(f"{source}: {where}: {first['msg']}") from exc
