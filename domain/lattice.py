@@ -121,6 +121,7 @@ class MotionTable:
     needs: list[Array] = field(init=False)  # per bin: clearance each point needs
     segments: list[NDArray[np.int64]] = field(init=False)  # per bin: start index per motion
     names: list[str] = field(init=False)  # PDDL names of the motions' primitives
+    open_clearance: float = field(init=False)  # centroid clearance that frees every motion
 
     def __post_init__(self) -> None:
         from domain.lattice_task import primitive_name  # names only; no import cycle at load
@@ -148,6 +149,11 @@ class MotionTable:
             self.points.append(np.concatenate(pts_k))
             self.needs.append(np.concatenate(need_k))
             self.segments.append(np.array(seg, dtype=np.int64))
+        # Clearance at the centroid beyond which every motion is free (clearance is
+        # 1-Lipschitz: no point lies further than `reach` from the centroid).
+        self.open_clearance = max(
+            float(np.max(np.linalg.norm(p, axis=-1) + n)) for p, n in zip(self.points, self.needs, strict=True)
+        )
 
     # -- poses --------------------------------------------------------------------------------
     def heading(self, k: int) -> float:

@@ -10,7 +10,7 @@ Type and predicate names are distinct (unified-planning rejects a name used as b
 
 from __future__ import annotations
 
-from domain.lattice_task import LatticeTask, primitive_name, state_name
+from domain.lattice_task import LatticeTask, state_name
 from domain.pddl import Action, Domain, Problem
 
 
@@ -55,8 +55,8 @@ def lattice_problem(task: LatticeTask, shape: str) -> Problem:
         states.add(a)
         for b, p in edges:
             states.add(b)
-            primitives.add(primitive_name(p))
-            init.append(f"(succ {state_name(a)} {state_name(b)} {primitive_name(p)})")
+            primitives.add(p)
+            init.append(f"(succ {state_name(a)} {state_name(b)} {p})")
     goal = f"g{task.goal_index}"
     for s in sorted(task.near):
         states.add(s)

@@ -65,7 +65,7 @@ class LatticeTask(Task):  # type: ignore[misc]
         self.deadline = math.inf
         self.cancel: threading.Event | None = None
         self.expansions = 0
-        self.edges: dict[int, list[tuple[int, str]]] = {}  # state -> [(next state, primitive)]
+        self.edges: dict[int, list[tuple[int, str]]] = {}  # state -> [(next, primitive's PDDL name)]
         self.near: set[int] = set()
         self._facts: dict[int, Fact] = {}
         start_fact = self.fact(self.start_number)
@@ -80,7 +80,11 @@ class LatticeTask(Task):  # type: ignore[misc]
         return f
 
     def at(self, state: frozenset[Fact]) -> int | None:
-        return next((f.number for f in state if f.number < self.grid.size), None)
+        size = self.grid.size
+        for f in state:
+            if f.number < size:
+                return f.number
+        return None
 
     # -- geometry ---------------------------------------------------------------------------
     def head(self, key: Key) -> Array:
@@ -97,8 +101,11 @@ class LatticeTask(Task):  # type: ignore[misc]
         t = self.table
         centre = self.grid.centre(i, j)
         margin = self.start_margin if key == self.start_key else self.margin
-        ok_points = self.clearance(centre + t.points[k]) >= t.needs[k] + margin
-        ok = np.logical_and.reduceat(ok_points, t.segments[k])
+        if float(self.clearance(centre[None, :])[0]) >= t.open_clearance + margin:
+            ok = np.ones(len(t.motions), dtype=bool)  # open space: nothing near enough to check
+        else:
+            ok_points = self.clearance(centre + t.points[k]) >= t.needs[k] + margin
+            ok = np.logical_and.reduceat(ok_points, t.segments[k])
         d = t.deltas[k]
         ni, nj = i + d[:, 0], j + d[:, 1]
         ok &= (ni >= 0) & (ni < self.grid.nx) & (nj >= 0) & (nj < self.grid.ny)
@@ -132,7 +139,7 @@ class LatticeTask(Task):  # type: ignore[misc]
             if b == number:
                 continue
             if fresh:
-                edges.append((b, self.table.motions[m].primitive))
+                edges.append((b, names[m]))
             there = self.fact(b)
             name = f"(move {state_name(number)} {state_name(b)} {names[m]})"
             succ.append((Operator(name, [here], [there], [here]), frozenset([there])))
@@ -161,7 +168,7 @@ class LatticeTask(Task):  # type: ignore[misc]
         ops = []
         for a, edges in sorted(self.edges.items()):
             for b, p in edges:
-                name = f"(move {state_name(a)} {state_name(b)} {primitive_name(p)})"
+                name = f"(move {state_name(a)} {state_name(b)} {p})"
                 ops.append(Operator(name, [self.fact(a)], [self.fact(b)], [self.fact(a)]))
         for a in sorted(self.near):
             name = f"(visit {state_name(a)} g{self.goal_index})"
@@ -192,21 +199,24 @@ class LatticeHeuristic(Heuristic):  # type: ignore[misc]
         centres = np.stack([cx.ravel(), cy.ravel()], -1)
         self.narrow = (task.clearance(centres) < self.NARROW).reshape(grid.nx, grid.ny)
         self.turn_step = grid.settings.step
+        base = np.maximum(0.0, distances - self.reach) / step + 1.0
+        self.base = np.where(np.isfinite(distances), base, math.inf).ravel().tolist()
+        self.narrow_flat = self.narrow.ravel().tolist()
+        self.way_flat = self.way.ravel().tolist()
+        self.plane = grid.nx * grid.ny
 
     def __call__(self, node: Any) -> float:
         state = node.state
-        if self.task.goal_fact in state:
+        task = self.task
+        if task.goal_fact in state:
             return 0.0
-        number = self.task.at(state)
+        number = task.at(state)
         if number is None:
             return math.inf
-        i, j, k = self.task.grid.decode(number)
-        d = float(self.distances[i, j])
-        if not math.isfinite(d):
-            return math.inf
-        h = max(0.0, d - self.reach) / self.step + 1.0
-        if self.narrow[i, j]:
+        k, cell = divmod(number, self.plane)  # encode(): (k * nx + i) * ny + j
+        h: float = self.base[cell]
+        if self.narrow_flat[cell]:
             # The body axis (either way along it) against the way's direction.
-            off = abs(math.remainder(k * self.turn_step - float(self.way[i, j]), math.pi))
+            off = abs(math.remainder(k * self.turn_step - self.way_flat[cell], math.pi))
             h += self.ALIGN_WEIGHT * off / (math.pi / 2)
         return h
