@@ -1,8 +1,10 @@
 """Learning benchmarks: the paper's Experiments 1-4 over 10 seeds, and learners side by side.
 
-Part 1 reproduces Exps 1-4 with the paper's PI² (paper: 12-20 updates). Part 2 compares
-rollouts to reach < 5 cm and wall time per learner over 10 seeds on the eight Fig. 6 goals for
-two shapes (DESIGN §8 target: the best learner needs at most half the paper PI²'s rollouts).
+Part 1 reproduces Exps 1-4 with the paper's PI² (paper: 12-20 updates). Part 2 runs every
+learner on Exps 1-4 (DESIGN §8: no failed seed). Part 3 compares rollouts to reach < 5 cm and
+wall time per learner over 10 seeds on the eight Fig. 6 goals for two shapes (target: the best
+learner needs at most half the paper PI²'s rollouts). Part 4 learns the 110 lattice primitives
+with each learner (3 mm / 0.17° threshold, retimed to 0.8 rad/s).
 """
 
 from __future__ import annotations
@@ -11,7 +13,8 @@ import time
 
 import numpy as np
 
-from primitives.catalogue import FIG6_GOALS
+from primitives.catalogue import FIG6_GOALS, lattice_specs
+from primitives.lattice import LATTICE_STOP, MAX_ATTEMPTS, learn_lattice
 from primitives.learners import LEARNERS, make_learner
 from primitives.params import ParameterSpace
 from primitives.task import LearningTask
@@ -47,8 +50,57 @@ def paper_experiments() -> None:
         print(f"{name:<26}{quartiles(ups):>26}{span:>10}{np.median(costs):>18.2f}{wall:>11.1f}")
 
 
+def experiments_per_learner() -> None:
+    print(
+        "\nPart 2: every learner on Exps 1-4, 10 seeds, stop below 5 cm (rollouts median [q1, q3])"
+    )
+    print(f"{'experiment':<26}{'learner':<9}{'rollouts':>26}{'vs pi2':>8}{'failed':>8}")
+    for name, task in EXPERIMENTS.items():
+        reference = 0.0
+        for learner_name in LEARNERS:
+            learner = make_learner(learner_name)
+            results = [learner.learn(task, seed) for seed in SEEDS]
+            rollouts = [float(r.rollouts) for r in results]
+            failed = sum(not r.converged for r in results)
+            median = float(np.median(rollouts))
+            reference = reference or median
+            print(
+                f"{name:<26}{learner_name:<9}{quartiles(rollouts):>26}{median / reference:>7.2f}x{failed:>8}"
+            )
+
+
+def lattice_primitives() -> None:
+    specs = lattice_specs()
+    print(
+        f"\nPart 4: the {len(specs)} lattice primitives per learner (threshold "
+        f"{LATTICE_STOP.threshold * 1e3:.0f} mm + 1 m/rad; up to {MAX_ATTEMPTS} seeds each)"
+    )
+    print(
+        f"{'learner':<9}{'rollouts':>26}{'vs pi2':>8}{'wall [ms]':>22}{'retried':>9}{'refined':>9}"
+        f"{'worst [mm]':>12}{'failed':>8}"
+    )
+    reference = 0.0
+    for name in LEARNERS:
+        rollouts, walls, retried, refined, worst, failed = [], [], 0, 0, 0.0, 0
+        for i, spec in enumerate(specs):
+            t0 = time.perf_counter()
+            entry = learn_lattice(spec, name, i, LATTICE_STOP)
+            walls.append((time.perf_counter() - t0) * 1e3)
+            rollouts.append(float(entry.rollouts))
+            retried += entry.seed != i
+            refined += bool(entry.settings["refined"])
+            worst = max(worst, entry.cost * 1e3)
+            failed += entry.cost >= LATTICE_STOP.threshold
+        median = float(np.median(rollouts))
+        reference = reference or median
+        print(
+            f"{name:<9}{quartiles(rollouts):>26}{median / reference:>7.2f}x{quartiles(walls):>22}"
+            f"{retried:>9}{refined:>9}{worst:>12.2f}{failed:>8}"
+        )
+
+
 def learner_comparison() -> None:
-    print("\nPart 2: rollouts to < 5 cm, 8 Fig. 6 goals x 10 seeds per shape (median [q1, q3])")
+    print("\nPart 3: rollouts to < 5 cm, 8 Fig. 6 goals x 10 seeds per shape (median [q1, q3])")
     print(f"{'shape':<10}{'learner':<9}{'rollouts':>26}{'vs pi2':>8}{'wall [ms]':>22}{'failed':>8}")
     for shape, joints in SHAPES.items():
         reference = 0.0
@@ -71,4 +123,6 @@ def learner_comparison() -> None:
 
 if __name__ == "__main__":
     paper_experiments()
+    experiments_per_learner()
     learner_comparison()
+    lattice_primitives()

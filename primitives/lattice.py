@@ -110,6 +110,8 @@ def learn_lattice(spec: PrimitiveSpec, learner_name: str, seed: int, stop: StopR
     """Learn, retime, refine and record one lattice primitive (deterministic for a seed)."""
     target = (spec.goal[0], spec.goal[1], spec.turn)
     space = spec.space()
+    if space.kind != "U1":  # retiming and trimming rely on a constant twist
+        raise ValueError(f"{spec.id}: lattice primitives need a fixed shape, not {spec.shape!r}")
     learner = make_learner(learner_name)
     slow = nominal_duration(target)
     first = _learn(

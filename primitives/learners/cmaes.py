@@ -4,7 +4,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cma
 import numpy as np
 
 from primitives.learners.base import (
@@ -34,6 +33,9 @@ class CMAES(SettingsFromFields):
         initial: Array | None = None,
         progress: Progress | None = None,
     ) -> LearningResult:
+        import cma  # here, not at the top: it takes ~1.7 s to import, and pool workers that
+        # learn with PI² would pay it for nothing
+
         space = task.space
         x0 = space.clamp(np.zeros(space.size) if initial is None else np.asarray(initial, float))
         lo, hi = space.bounds()

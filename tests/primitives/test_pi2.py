@@ -69,3 +69,11 @@ def test_progress_callback_sees_every_update() -> None:
 def test_unknown_learner_is_a_clear_error() -> None:
     with pytest.raises(ValueError, match="learner"):
         make_learner("sgd")
+
+
+@pytest.mark.parametrize(("name", "seed"), [("pi2-cma", 4), ("pi2-cma", 8), ("cmaes", 4)])
+def test_restarts_rescue_the_exp3_seeds_that_used_to_fail(name, seed) -> None:
+    # These runs collapsed on a poor basin and, restarted around their best point, fell back
+    # into it until the update budget ran out; a restart from the start escapes.
+    result = make_learner(name).learn(EXP3, seed)
+    assert result.converged and result.updates < 100
