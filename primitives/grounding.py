@@ -17,6 +17,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import NDArray
 
 from primitives.library import Primitive
 from sim.robot import Array
@@ -102,7 +103,7 @@ def ground(
     delta = twist_of(want) - base
     # Each basis primitive b adds w·ξ_b when run at w·T_b/T of its speeds over the duration T.
     xis = np.array([twist_of(e.end_pose or (0.0, 0.0, 0.0)) for e in basis])  # [B, 3]
-    weights = _weights(xis, delta)
+    weights = _weights(xis, delta, np.array([e.turn != 0.0 for e in basis], dtype=bool))
     for w, e in zip(weights, basis, strict=True):
         if abs(w) > 1e-9:
             theta = theta + w * np.asarray(e.theta) * (float(e.rollout.duration) / duration)
@@ -115,11 +116,11 @@ def ground(
     return Grounded(theta, joints, duration, "interpolated", tuple(used), expected)
 
 
-def _weights(xis: Array, delta: Array) -> Array:
+def _weights(xis: Array, delta: Array, is_turn: NDArray[np.bool_]) -> Array:
     """Weights of at most three basis primitives (the two translations bracketing the missing
     translation's direction, and a turn for the missing rotation), least squares otherwise."""
-    trans = [b for b in range(len(xis)) if abs(xis[b, 2]) < 1e-9]
-    turns = [b for b in range(len(xis)) if abs(xis[b, 2]) >= 1e-9]
+    trans = [b for b in range(len(xis)) if not is_turn[b]]
+    turns = [b for b in range(len(xis)) if is_turn[b]]
     out = np.zeros(len(xis))
     if len(xis) == 0:
         return out
@@ -134,7 +135,7 @@ def _weights(xis: Array, delta: Array) -> Array:
         left = [b for b in trans if gap[b] > 0]
         if right and left:
             pick += [max(right, key=gap.__getitem__), min(left, key=gap.__getitem__)]
-    if turns and abs(delta[2]) > 1e-9:
+    if turns and abs(delta[2]) > 1e-4:
         pick.append(min(turns, key=lambda b: (bool(np.sign(xis[b, 2]) != np.sign(delta[2])), abs(xis[b, 2]))))
     chosen = pick if pick else list(range(len(xis)))
     w, *_ = np.linalg.lstsq(xis[chosen].T, delta, rcond=None)
