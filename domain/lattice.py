@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -122,6 +123,8 @@ class MotionTable:
     segments: list[NDArray[np.int64]] = field(init=False)  # per bin: start index per motion
     names: list[str] = field(init=False)  # PDDL names of the motions' primitives
     open_clearance: float = field(init=False)  # centroid clearance that frees every motion
+    body_points: list[Array] = field(init=False)  # per bin: the resting body's sample points
+    body_needs: list[Array] = field(init=False)
 
     def __post_init__(self) -> None:
         from domain.lattice_task import primitive_name  # names only; no import cycle at load
@@ -132,8 +135,13 @@ class MotionTable:
         K, r = self.settings.orientations, self.settings.resolution
         self.deltas = np.zeros((K, len(self.motions), 3), dtype=np.int64)
         self.points, self.needs, self.segments = [], [], []
+        self.body_points, self.body_needs = [], []
         for k in range(K):
             start = self.pose_of_centroid(np.zeros(2), k)
+            fp0 = footprint(start, self.joints, self.geometry)
+            p0, n0 = _capsule_samples(fp0.starts, fp0.ends, fp0.radii)
+            self.body_points.append(p0)
+            self.body_needs.append(n0)
             pts_k, need_k, seg = [], [], []
             for m, motion in enumerate(self.motions):
                 end = compose(start, motion.end)
@@ -217,6 +225,10 @@ def lattice_shapes(library: Library) -> list[str]:
     return sorted({e.shape for e in library if e.family == "lattice"})
 
 
+_TABLES: dict[tuple[Any, ...], tuple[Library, MotionTable | None]] = {}
+TABLE_CACHE = 64  # motion tables kept per process (each ~0.3 s to build)
+
+
 def motion_table(
     library: Library,
     shape: str,
@@ -224,8 +236,21 @@ def motion_table(
     settings: LatticeSettings,
     geometry: RobotGeometry = DEFAULT_GEOMETRY,
 ) -> MotionTable | None:
-    """The shape's lattice primitives as a motion table, or ``None`` if the library has none."""
+    """The shape's lattice primitives as a motion table, or ``None`` if the library has none.
+
+    Tables are kept per process (keyed by the library object, shape, joints and settings):
+    every mission of a worker reuses them."""
+    key = (id(library), shape, joints, settings, geometry)
+    cached = _TABLES.get(key)
+    if cached is not None and cached[0] is library:
+        return cached[1]
     entries = library.lattice(shape)
-    if not entries:
-        return None
-    return MotionTable(shape, np.asarray(joints, float), [Motion.of(e) for e in entries], settings, geometry)
+    table = (
+        MotionTable(shape, np.asarray(joints, float), [Motion.of(e) for e in entries], settings, geometry)
+        if entries
+        else None
+    )
+    if len(_TABLES) >= TABLE_CACHE:
+        _TABLES.clear()
+    _TABLES[key] = (library, table)  # the library is held so its id cannot be reused
+    return table

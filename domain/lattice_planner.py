@@ -30,6 +30,7 @@ from sim.world import Bounds, footprint
 
 NEIGHBOURS = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1))
 MAX_GOALS_EXACT = 7  # unordered goals up to this many are ordered by trying every permutation
+PARTIAL_AFTER = 1.5  # seconds of search after which a partial plan is taken, if it gets closer
 
 
 @dataclass(frozen=True)
@@ -65,6 +66,7 @@ class LatticePlan:
     expansions: int = 0
     search_ms: float = 0.0
     task: LatticeTask | None = None  # the first leg's task (for the PDDL export)
+    partial: bool = False  # the search ran out of time: the plan leads towards the goal only
 
     @property
     def solved(self) -> bool:
@@ -123,6 +125,13 @@ def distance_map(
     gi, gj = grid.cell(*goal)
     dist = dijkstra(graph, directed=True, indices=int(index[gi, gj]))
     return np.asarray(dist, dtype=float).reshape(nx, ny)
+
+
+@dataclass(frozen=True)
+class _Root:
+    """A stand-in search node for evaluating the heuristic at a state."""
+
+    state: frozenset[Any]
 
 
 class LatticePlanner:
@@ -211,10 +220,21 @@ class LatticePlanner:
                 self.settings.start_margin if leg == 0 else self.settings.margin,
                 goal.index,
             )
-            task.deadline, task.cancel = deadline, cancel
+            task.deadline, task.cancel = min(deadline, time.monotonic() + PARTIAL_AFTER), cancel
             if leg == 0:
                 plan.task = task
             result = self._search(task, maps[goal.index])
+            if result.status == "timeout" and time.monotonic() < deadline:
+                # Nothing closer to go to yet: search again with all the time left.
+                task = LatticeTask(
+                    self.grid, table, clearance, here, (goal.x, goal.y),
+                    max(0.03, 0.6 * goal.tolerance), self.settings.margin,
+                    self.settings.start_margin if leg == 0 else self.settings.margin, goal.index,
+                )
+                task.deadline, task.cancel = deadline, cancel
+                if leg == 0:
+                    plan.task = task
+                result = self._search(task, maps[goal.index])
             plan.expansions += task.expansions
             if not result.solved:
                 plan.status = result.status
@@ -223,24 +243,36 @@ class LatticePlanner:
                 break
             actions, here = self._actions(task, table, result.plan)
             plan.actions += actions
+            if result.reason == "partial":  # the rest is planned again from there
+                plan.partial = True
+                break
         plan.search_ms = (time.monotonic() - started) * 1e3
         return plan
 
     def _search(self, task: LatticeTask, distances: Array) -> PlanResult:
+        """pyperplan's search on the leg. When time runs out, the path to the most promising
+        state seen (by the lattice heuristic) is returned as a ``partial`` plan: the robot
+        goes there, senses more, and plans again."""
         t0 = time.monotonic()
         step = max(
             (float(np.hypot(*m.end[:2])) for m in task.table.motions if abs(m.end[2]) < 1e-3),
             default=0.25,
         )
+        lattice_h = LatticeHeuristic(task, distances, max(step, 1e-3))
         try:
             if self.heuristic == "lattice":
-                h: Any = LatticeHeuristic(task, distances, max(step, 1e-3))
+                h: Any = lattice_h
             else:
                 task.ground_all()  # pyperplan's own heuristics need every operator
                 h = HEURISTICS[self.heuristic](task)
             plan = SEARCHES[self.search](task, h) if self.search != "bfs" else SEARCHES["bfs"](task)
         except SearchStopped as stop:
             ms = (time.monotonic() - t0) * 1e3
+            best = lattice_h.best
+            start_h = lattice_h(_Root(task.initial_state))
+            if stop.status == "timeout" and best is not None and best[0] < start_h - 1.0:
+                names = [op.name for op in best[1].extract_solution()]
+                return PlanResult("solved", names, ms, task.expansions, "partial")
             return PlanResult(stop.status, [], ms, task.expansions, f"search {stop.status} after {ms:.0f} ms")
         ms = (time.monotonic() - t0) * 1e3
         if plan is None:

@@ -57,9 +57,16 @@ class LatticeTask(Task):  # type: ignore[misc]
         goal_index: int = 0,
     ) -> None:
         self.grid, self.table, self.clearance = grid, table, clearance
-        self.goal, self.reach, self.margin, self.start_margin = goal, reach, margin, start_margin
+        self.goal, self.reach, self.margin = goal, reach, margin
         self.start_key = start
         self.start_number = grid.encode(start)
+        # The robot may start touching something (a contact stopped it): motions out of the
+        # start may then keep as close as the start already is, but never go deeper.
+        i, j, k = start
+        depth = float(
+            np.min(clearance(grid.centre(i, j) + table.body_points[k]) - table.body_needs[k])
+        )
+        self.start_margin = min(start_margin, depth - 0.005)
         self.goal_fact = Fact(f"(visited g{goal_index})", grid.size + goal_index)
         self.goal_index = goal_index
         self.deadline = math.inf
@@ -178,32 +185,38 @@ class LatticeTask(Task):  # type: ignore[misc]
 
 class LatticeHeuristic(Heuristic):  # type: ignore[misc]
     """Footprint-aware 2-D distance to the goal in moves of ``step`` metres (0 once visited),
-    plus, where the way is narrow, how far the body axis is from the way's direction (so a
+    plus two orientation terms that break the ties a 2-D distance leaves: a small one for
+    leading with the head along the way (the head carries the sensors), and, where the way is
+    narrow, one for the body axis (either way along it) against the way's direction, so a
     greedy search lines the body up with a corridor instead of trying every heading at its
-    mouth; a tie-breaker of at most ``ALIGN_WEIGHT`` moves)."""
+    mouth. It also remembers the most promising node it saw (a partial plan when time runs
+    out)."""
 
     ALIGN_WEIGHT = 2.0
+    HEAD_WEIGHT = 0.5
     NARROW = 0.5  # metres of clearance below which a cell counts as narrow
 
     def __init__(self, task: LatticeTask, distances: Array, step: float) -> None:
         self.task, self.distances, self.step = task, distances, step
         self.reach = float(np.linalg.norm(task.table.offset))
-        finite = np.where(np.isfinite(distances), distances, np.nanmax(np.where(np.isfinite(distances), distances, 0)) + 1.0)
-        gx, gy = np.gradient(finite)
-        self.way = np.arctan2(-gy, -gx)  # direction of steepest descent: along the way
+        finite = np.isfinite(distances)
+        filled = np.where(finite, distances, float(np.max(distances[finite], initial=0.0)) + 1.0)
+        gx, gy = np.gradient(filled)
+        way = np.arctan2(-gy, -gx)  # direction of steepest descent: along the way
         grid = task.grid
         r = grid.settings.resolution
         xs = grid.bounds.xmin + (np.arange(grid.nx) + 0.5) * r
         ys = grid.bounds.ymin + (np.arange(grid.ny) + 0.5) * r
         cx, cy = np.meshgrid(xs, ys, indexing="ij")
         centres = np.stack([cx.ravel(), cy.ravel()], -1)
-        self.narrow = (task.clearance(centres) < self.NARROW).reshape(grid.nx, grid.ny)
+        narrow = task.clearance(centres) < self.NARROW
         self.turn_step = grid.settings.step
         base = np.maximum(0.0, distances - self.reach) / step + 1.0
-        self.base = np.where(np.isfinite(distances), base, math.inf).ravel().tolist()
-        self.narrow_flat = self.narrow.ravel().tolist()
-        self.way_flat = self.way.ravel().tolist()
+        self.base = np.where(finite, base, math.inf).ravel().tolist()
+        self.narrow = narrow.tolist()
+        self.way = way.ravel().tolist()
         self.plane = grid.nx * grid.ny
+        self.best: tuple[float, Any] | None = None
 
     def __call__(self, node: Any) -> float:
         state = node.state
@@ -215,8 +228,12 @@ class LatticeHeuristic(Heuristic):  # type: ignore[misc]
             return math.inf
         k, cell = divmod(number, self.plane)  # encode(): (k * nx + i) * ny + j
         h: float = self.base[cell]
-        if self.narrow_flat[cell]:
-            # The body axis (either way along it) against the way's direction.
-            off = abs(math.remainder(k * self.turn_step - self.way_flat[cell], math.pi))
-            h += self.ALIGN_WEIGHT * off / (math.pi / 2)
+        psi = k * self.turn_step
+        way = self.way[cell]
+        # e(ψ) points to the tail: the head leads along ψ + π.
+        h += self.HEAD_WEIGHT * abs(math.remainder(psi + math.pi - way, 2 * math.pi)) / math.pi
+        if self.narrow[cell]:
+            h += self.ALIGN_WEIGHT * abs(math.remainder(psi - way, math.pi)) / (math.pi / 2)
+        if self.best is None or h < self.best[0]:
+            self.best = (h, node)
         return h

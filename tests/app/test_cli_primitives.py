@@ -44,7 +44,9 @@ def test_library_build_show_plot(tmp_path: Path) -> None:
     result = runner.invoke(cli, args)
     assert result.exit_code == 0, result.output
     library = Library.load(lib)
-    assert len(library) == 8 and all(e.cost < 0.05 and e.learner == "pi2-cma" for e in library)
+    paper = library.paper()
+    assert len(paper) == 8 and all(e.cost < 0.05 and e.learner == "pi2-cma" for e in paper)
+    assert len(library.lattice("straight")) == 22  # translations and turns of the lattice
     shown = runner.invoke(cli, ["library", "show", str(lib)])
     assert shown.exit_code == 0 and "P1s" in shown.output
     png = tmp_path / "fig6.png"

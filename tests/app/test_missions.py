@@ -48,7 +48,8 @@ def test_hidden_obstacle_on_the_straight_path_forces_a_replan() -> None:
     )
     result = run(spec)
     assert result.status == "succeeded" and result.collisions == 0
-    assert any(r.trigger == "obstacle_sensed" for r in result.replans)
+    # the sensed obstacle broke the plan's precondition (its swept footprint), so it replanned
+    assert any(r.trigger == "path_blocked" for r in result.replans)
     # the path really went round: it never came within the obstacle
     assert min(math.hypot(p[1] + 1.5, p[2]) for p in result.trajectory) > 0.3
 
@@ -81,8 +82,11 @@ def test_deformation_switches_to_the_new_shapes_primitives() -> None:
     result = runner.run()
     assert result.status == "succeeded"
     assert any(e["kind"] == "deform" and e.get("shape") == "semi-zigzag" for e in result.events)
-    after = [g for t, shape, g in grounded if t > 20]
-    assert after and all(all(p.startswith("semi-zigzag") for p in g["primitives"]) for g in after)
+    after = [g for t, shape, g in grounded if t > 20 and g.get("primitives")]
+    # every move after the deformation runs the new shape's lattice primitives
+    assert after and all(
+        all(p.startswith("lat-semi-zigzag-") for p in g["primitives"]) for g in after
+    )
     assert all(g["method"] in ("library", "interpolated") for _, _, g in grounded if g)
 
 
@@ -100,13 +104,7 @@ def test_tree_snapshots_are_json_with_names_and_statuses() -> None:
         "INVALID",
     )
     names = json.dumps(tree)
-    for part in (
-        "guard: obstacle",
-        "guard: body shape",
-        "guard: progress",
-        "follow plan",
-        "replan",
-    ):
+    for part in ("sense", "guard: body shape", "guard: plan holds", "execute plan", "replan"):
         assert part in names
     assert first["action"].startswith("(move") and first["pose"]["x"] <= 0.1
 
@@ -140,7 +138,8 @@ def test_unreachable_goal_fails_with_a_reason_not_a_hang() -> None:
     ]
     spec = MissionSpec.model_validate({"goals": [{"x": 3, "y": 3}], "obstacles": walls})
     result = run(spec)
-    assert result.status == "failed" and "cannot be reached" in result.reason
+    assert result.status == "failed"
+    assert result.reason == "unreachable: goal 0 at (3, 3) enclosed by known obstacles"
 
 
 @pytest.mark.parametrize(
