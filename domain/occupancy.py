@@ -1,16 +1,21 @@
 """The sensed occupancy layer: a log-odds grid updated by range readings (ray clearing, cone hits).
 
-Every reading first clears the cells its beam (or cone) swept up to the measured range minus a
-noise margin, then places the hit on the arc at the measured range within the cone. A cone's one
-reading is the nearest hit anywhere in the cone, so the arc only says "at least one of these cells
-is occupied": the hit's evidence is shared across the arc cells in proportion to their current
-occupancy probability (cells other beams have cleared get little, cells already known occupied
-get most), and a share that does not dominate the arc can raise a cell only to a ceiling below the
-occupied threshold. So a cone that straddles a free corridor and reads its wall at the edge never
-fills the corridor: only an unambiguous hit (a single ray, a narrow arc close in, or an arc whose
-other cells were cleared by other beams) makes a cell occupied, and that takes repeated readings.
-Hits within the noise of known geometry (known obstacles, arena walls) are the known geometry's
-and leave the sensed layer alone, so known walls are not narrowed by noisy copies of themselves.
+Clearing before marking: every reading first clears the cells its ray or cone swept, up to the
+measured range minus a noise margin (2σ + half a cell; a reading of "nothing within range" clears
+the cone to ``max_range`` minus the same margin, since an obstacle just inside the range may read
+as out of it). Then the hit is placed where it may be: across the cone, over the measured range
+± 2σ. A cone's one reading is the nearest hit anywhere in the cone, so that region only says "at
+least one of these cells is occupied". Its evidence (``log_odds_hit`` in all) is shared across the
+region's cells in proportion to range likelihood x current occupancy probability, so cells other
+beams cleared get little and cells known occupied get most. A cell's share counts in full only if
+it holds most of the evidence (``dominant_share``) and the cone's arc at that range is at most a
+cell wide (``unambiguous_arc``); any other share may lift a cell only up to ``ambiguous_ceiling``,
+below the occupied threshold. Cells cleared around a wide arc prove nothing about the one left
+standing, and the same ambiguous arc read over and over is not new evidence: so a cone straddling
+a free corridor and reading its wall at the edge never fills the corridor, however long it stares,
+while single rays and the cone close in mark obstacles after a few consistent readings. Hits within
+the noise of known geometry (known obstacles, arena walls) are the known geometry's and leave the
+sensed layer alone, so known walls are not narrowed by noisy copies of themselves.
 """
 
 from __future__ import annotations
@@ -115,6 +120,7 @@ class Grid:
 
     @property
     def shape(self) -> tuple[int, int]:
+        """``(nx, ny)``: cells along x, along y."""
         return (self.nx, self.ny)
 
     def cell_of(self, x: float, y: float) -> tuple[int, int]:
@@ -123,9 +129,11 @@ class Grid:
         return (math.floor((x - self.origin[0]) / res), math.floor((y - self.origin[1]) / res))
 
     def inside(self, i: int, j: int) -> bool:
+        """Whether cell ``(i, j)`` is on the grid."""
         return 0 <= i < self.nx and 0 <= j < self.ny
 
     def centre_of(self, i: int, j: int) -> tuple[float, float]:
+        """The world centre of cell ``(i, j)``."""
         res = self.resolution
         return (self.origin[0] + (i + 0.5) * res, self.origin[1] + (j + 0.5) * res)
 

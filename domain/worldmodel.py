@@ -127,7 +127,7 @@ class WorldModel:
 
     def clearance(self) -> Array:
         """Metres from each cell centre to the nearest obstacle surface or wall (conservative,
-        saturated at ``max_clearance``); cached until ``version`` changes. Do not modify it."""
+        saturated at ``max_clearance``); cached until ``version`` changes (a read-only array)."""
         cached = self._cached("clearance")
         if cached is None:
             cached = self._store("clearance", np.minimum(self._static, self._dynamic_clearance()))
@@ -136,7 +136,9 @@ class WorldModel:
 
     def clearance_at(self, points: Array) -> Array:
         """Clearance at world points ``[..., 2]``: bilinear between cell centres, exact to the
-        walls (negative outside the bounds)."""
+        walls (negative outside the bounds). Between centres, near a convex obstacle, bilinear
+        may exceed the true distance by about resolution² / (8 x distance); ``capsules_clear``
+        measures known obstacles exactly instead."""
         pts = np.asarray(points, dtype=float)
         inner = self._interpolate(self.clearance(), pts)
         out: Array = np.minimum(inner, self.bounds.wall_clearance(pts))
@@ -256,6 +258,7 @@ class WorldModel:
         return self._cache.get(key)
 
     def _store(self, key: str, value: Any) -> Any:
+        value.flags.writeable = False  # shared with callers until the next change
         self._cache[key] = value
         return value
 
