@@ -26,7 +26,8 @@ can cache what they derive from the model.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+import math
+from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
 import numpy as np
@@ -35,10 +36,11 @@ from scipy import ndimage
 
 from domain.occupancy import Grid, RangeObservation, SensedLayer, WorldModelSettings
 from sim.obstacles import Circle, Obstacle
-from sim.robot import Array
+from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry, head_tip
+from sim.sensors import RangeSensor
 from sim.world import Bounds
 
-__all__ = ["RangeObservation", "WorldModel", "WorldModelSettings"]
+__all__ = ["RangeObservation", "WorldModel", "WorldModelSettings", "range_observations"]
 
 
 class WorldModel:
@@ -54,7 +56,7 @@ class WorldModel:
         self.settings = settings
         self.grid = Grid(bounds, settings.resolution)
         self.version = 0
-        self.known: list[Obstacle] = []
+        self._known: list[Obstacle] = []
         cap = settings.max_clearance
         walls = bounds.wall_clearance(self._centre_grid())
         self._known_distance = np.full(self.grid.shape, cap)  # to known obstacles only
@@ -79,18 +81,25 @@ class WorldModel:
     def add_contact(self, point: tuple[float, float]) -> None:
         """Mark a disc of ``contact_radius`` (at least the cell holding ``point``) occupied for good."""
         x, y = point
-        near = np.hypot(self._centre_grid()[..., 0] - x, self._centre_grid()[..., 1] - y)
-        disc = near <= self.settings.contact_radius
-        i, j = self.grid.cell_of(x, y)
-        if self.grid.inside(i, j):
-            disc[i, j] = True
-        if np.any(disc & ~self._contact):
-            self._contact |= disc
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise ValueError("contact point: coordinates must be finite")
+        r, grid = self.settings.contact_radius, self.grid
+        (i0, j0), (i1, j1) = grid.cell_of(x - r, y - r), grid.cell_of(x + r, y + r)
+        i0, j0, i1, j1 = max(i0, 0), max(j0, 0), min(i1 + 1, grid.nx), min(j1 + 1, grid.ny)
+        if i0 >= i1 or j0 >= j1:
+            return  # nowhere near the grid
+        disc = np.hypot(grid.xs[i0:i1, None] - x, grid.ys[None, j0:j1] - y) <= r
+        i, j = grid.cell_of(x, y)
+        if grid.inside(i, j):
+            disc[i - i0, j - j0] = True
+        window = self._contact[i0:i1, j0:j1]
+        if np.any(disc & ~window):
+            window |= disc
             self.version += 1
 
     def add_known(self, obstacle: Obstacle) -> None:
         """Add a known obstacle to the static layer (exact distances within ``max_clearance``)."""
-        self.known.append(obstacle)
+        self._known.append(obstacle)
         block = _distance_block(obstacle, self.grid, self.settings.max_clearance)
         if block is None:
             return
@@ -100,6 +109,11 @@ class WorldModel:
             np.minimum(window, dist, out=window)
             np.minimum(self._static[i0:i1, j0:j1], dist, out=self._static[i0:i1, j0:j1])
             self.version += 1
+
+    @property
+    def known(self) -> tuple[Obstacle, ...]:
+        """The known obstacles, in the order they were added."""
+        return tuple(self._known)
 
     def occupied(self) -> NDArray[np.bool_]:
         """Combined occupancy ``[nx, ny]``: known obstacles within half a cell of the centre,
@@ -158,7 +172,7 @@ class WorldModel:
         ok: NDArray[np.bool_] = np.all(walls >= need, axis=-1)  # wall distance is linear: ends
         if self._has_dynamic():
             ok &= self._samples_clear(a, b, need)
-        for obstacle in self.known:
+        for obstacle in self._known:
             _known_clear(obstacle, a, b, need, ok)
         return ok.reshape(lead)
 
@@ -261,6 +275,30 @@ class WorldModel:
         value.flags.writeable = False  # shared with callers until the next change
         self._cache[key] = value
         return value
+
+
+def range_observations(
+    sensors: Sequence[RangeSensor],
+    pose: Sequence[float] | Array,
+    ranges: Mapping[str, float],
+    geometry: RobotGeometry = DEFAULT_GEOMETRY,
+    no_hit_sigmas: float = 2.0,
+) -> list[RangeObservation]:
+    """The head's range readings (``sim.sensors`` layout) at tracked pose ``[x, y, ψ]`` as
+    observations. A missing or NaN reading is a dropout; one within ``no_hit_sigmas`` noise σ of
+    ``max_range`` means "nothing within range" (an empty reading is noisy too, then clipped)."""
+    p = np.asarray(pose, dtype=float)
+    origin = head_tip(p, geometry)
+    at = (float(origin[0]), float(origin[1]))
+    forward = float(p[2]) + math.pi  # the head leads: the body trails along ψ
+    out = []
+    for sensor in sensors:
+        d = float(ranges.get(sensor.name, math.nan))
+        fov = sensor.fov if sensor.rays > 1 else 0.0  # one ray reads along the axis only
+        hit = not math.isnan(d) and d < sensor.max_range - no_hit_sigmas * sensor.noise_std
+        angle = forward + sensor.angle
+        out.append(RangeObservation(at, angle, fov, sensor.max_range, d, hit, sensor.noise_std))
+    return out
 
 
 def _distance_block(

@@ -8,8 +8,10 @@ import math
 import numpy as np
 import pytest
 
-from domain.worldmodel import RangeObservation, WorldModel, WorldModelSettings
+from domain.worldmodel import RangeObservation, WorldModel, WorldModelSettings, range_observations
 from sim.obstacles import Circle, Obstacle, Polygon, point_segment_distance, rectangle, unit_vectors
+from sim.robot import head_tip
+from sim.sensors import SensorSuite, forward_ir, range_ring
 from sim.world import Bounds, World, footprint
 
 SIGMA = 0.02
@@ -342,6 +344,31 @@ def test_cells_and_export():
     assert data["resolution"] == RES and data["origin"] == [-1.0, -0.5] and data["size"] == [41, 20]
     assert data["sensed"] == [[0.025, 0.325]] or data["sensed"] == [[-0.025, 0.325]]
     assert data["contact"] == [] and data["version"] == model.version
+
+
+def test_simulator_readings_become_observations():
+    hidden = (Circle(-0.8, 0.05, 0.15, known=False), rectangle(0.7, 0.0, 0.1, 1.0, known=False))
+    world = World(Bounds(-2.0, 2.0, -2.0, 2.0), hidden)
+    sensors = forward_ir(noise_std=SIGMA) + range_ring(8, 1.0, SIGMA)
+    suite = SensorSuite(sensors, rng=np.random.default_rng(6))
+    pose = np.array([0.0, 0.0, 0.1])  # the head faces ψ + π: towards the circle
+    model = WorldModel(world.bounds)
+    for _ in range(6):
+        readings = suite.read(world, pose, np.zeros(3), dropped=frozenset({"ring3"}))
+        obs = range_observations(sensors, pose, readings.ranges)
+        model.integrate(obs)
+    assert obs[0].origin == pytest.approx(tuple(head_tip(pose)))
+    assert obs[0].angle == pytest.approx(0.1 + math.pi) and obs[0].fov == sensors[0].fov
+    assert obs[1].fov == 0.0 and obs[2].angle == pytest.approx(0.1 + math.pi + math.pi / 4)
+    seen = [readings.hits[s.name] != -2 for s in sensors]
+    assert [o.hit for o in obs] == [
+        h and s.name != "ring3" for h, s in zip(seen, sensors, strict=True)
+    ]
+    assert sum(seen) >= 3 and not all(seen)  # noisy empty readings (< max_range) are not hits
+    assert math.isnan(obs[4].distance)  # ring3 dropped out
+    centres = sensed_centres(model)
+    assert len(centres) >= 1
+    assert surface_distance(world, centres).max() <= 2 * SIGMA + RES
 
 
 def test_invalid_settings_and_observations_are_rejected():
