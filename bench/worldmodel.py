@@ -70,8 +70,10 @@ def main() -> None:
         model.integrate(tick)
     per_tick = (time.perf_counter() - t0) / len(ticks)
     beams = len(LAYOUT)
-    print(f"update, {beams} beams (1 cone + {beams - 1} rays): {per_tick * 1e3:.3f} ms per tick, ")
-    print(f"  {per_tick / beams * 1e3:.3f} ms per beam (target < 0.3)")
+    print(
+        f"update, {beams} beams (1 cone + {beams - 1} rays): {per_tick * 1e3:.3f} ms per tick, "
+        f"{per_tick / beams * 1e3:.3f} ms per beam (target < 0.3)"
+    )
     print(f"  sensed cells occupied: {int(model.sensed_occupied().sum())}, version {model.version}")
 
     def recompute() -> None:

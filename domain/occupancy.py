@@ -95,11 +95,13 @@ class WorldModelSettings:
             raise ValueError("world model settings: need occupied_threshold < log_odds_max")
         if not 0 < self.dominant_share < 1:
             raise ValueError("world model settings: dominant_share must lie in (0, 1)")
-        if (
-            min(self.clear_sigmas, self.clear_margin, self.explained_sigmas, self.contact_radius)
-            < 0
-        ):
-            raise ValueError("world model settings: margins and radii must be >= 0")
+        margins = (self.clear_sigmas, self.clear_margin, self.explained_sigmas, self.contact_radius)
+        if min(*margins, self.unambiguous_arc) < 0:
+            raise ValueError(
+                "world model settings: margins, radii and unambiguous_arc must be >= 0"
+            )
+        if self.sample_step > 1:
+            raise ValueError("world model settings: sample_step above one cell would skip cells")
 
 
 class Grid:
@@ -266,7 +268,9 @@ class SensedLayer:
         explained = known_clearance[cells] <= tolerance
         p = np.where(explained, 1.0, 1.0 / (1.0 + np.exp(-self.log_odds.reshape(-1)[cells])))
         share = likelihood * p / np.sum(likelihood * p)
-        narrow = obs.fov * obs.distance <= s.unambiguous_arc * self.grid.resolution
+        narrow = (
+            obs.fov * min(obs.distance, obs.max_range) <= s.unambiguous_arc * self.grid.resolution
+        )
         sure = ~explained & (share > s.dominant_share) & narrow
         vague = ~explained & ~sure
         updates.sure_cells.append(cells[sure])

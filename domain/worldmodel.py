@@ -144,7 +144,7 @@ class WorldModel:
         saturated at ``max_clearance``); cached until ``version`` changes (a read-only array)."""
         cached = self._cached("clearance")
         if cached is None:
-            cached = self._store("clearance", np.minimum(self._static, self._dynamic_clearance()))
+            cached = self._store("clearance", np.minimum(self._static, self._dynamic()))
         out: Array = cached
         return out
 
@@ -232,15 +232,20 @@ class WorldModel:
     def _has_dynamic(self) -> bool:
         return bool(np.any(self._sensed.occupied) or np.any(self._contact))
 
-    def _dynamic_clearance(self) -> Array:
-        """Clearance to sensed and contact cells: distance between centres minus half a cell."""
-        cap = self.settings.max_clearance
-        if not self._has_dynamic():
-            return np.full(self.grid.shape, cap)
-        free = ~(self._sensed.occupied | self._contact)
-        res = self.grid.resolution
-        dist = ndimage.distance_transform_edt(free) * res - 0.5 * res
-        out: Array = np.clip(dist, 0.0, cap)
+    def _dynamic(self) -> Array:
+        """Clearance to sensed and contact cells: distance between centres minus half a cell
+        (cached until ``version`` changes)."""
+        cached = self._cached("dynamic")
+        if cached is None:
+            cap = self.settings.max_clearance
+            if self._has_dynamic():
+                free = ~(self._sensed.occupied | self._contact)
+                res = self.grid.resolution
+                dist = ndimage.distance_transform_edt(free) * res - 0.5 * res
+                cached = self._store("dynamic", np.clip(dist, 0.0, cap))
+            else:
+                cached = self._store("dynamic", np.full(self.grid.shape, cap))
+        out: Array = cached
         return out
 
     def _samples_clear(self, a: Array, b: Array, need: Array) -> NDArray[np.bool_]:
@@ -248,10 +253,7 @@ class WorldModel:
         length = float(np.max(np.linalg.norm(b - a, axis=-1), initial=0.0))
         t = np.linspace(0.0, 1.0, max(2, int(np.ceil(length / step)) + 1))
         pts = a[..., None, :] + t[:, None] * (b - a)[..., None, :]  # [..., C, n, 2]
-        dynamic = self._cached("dynamic")
-        if dynamic is None:
-            dynamic = self._store("dynamic", self._dynamic_clearance())
-        values = self._interpolate(dynamic, pts)
+        values = self._interpolate(self._dynamic(), pts)
         out: NDArray[np.bool_] = np.all(values >= need[:, None], axis=(-2, -1))
         return out
 

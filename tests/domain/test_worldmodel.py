@@ -377,6 +377,10 @@ def test_invalid_settings_and_observations_are_rejected():
     with pytest.raises(ValueError):
         WorldModelSettings(ambiguous_ceiling=2.0)
     with pytest.raises(ValueError):
+        WorldModelSettings(sample_step=1.5)
+    with pytest.raises(ValueError):
+        WorldModel(Bounds()).add_contact((math.nan, 0.0))
+    with pytest.raises(ValueError):
         RangeObservation((0.0, 0.0), 0.0, -0.1, 1.0, 0.5, True)
     with pytest.raises(ValueError):
         RangeObservation((0.0, math.inf), 0.0, 0.0, 1.0, 0.5, True)
