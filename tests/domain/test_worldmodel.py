@@ -138,6 +138,24 @@ def test_capsules_clear_matches_the_simulator_on_known_obstacles():
     assert single.shape == () and bool(single) == want[0]
 
 
+@pytest.mark.parametrize("margin", [0.0, 0.03, 0.1])
+def test_capsules_clear_is_exact_among_many_known_obstacles(margin):
+    rng = np.random.default_rng(7)
+    circles = [Circle(*rng.uniform(-2.3, 2.3, 2), rng.uniform(0.05, 0.3)) for _ in range(20)]
+    bars = [rectangle(*rng.uniform(-2.3, 2.3, 2), 0.5, 0.08, rng.uniform(0, 3)) for _ in range(20)]
+    known = (*circles, *bars)
+    bounds = Bounds(-2.5, 2.5, -2.5, 2.5)
+    poses = np.column_stack([rng.uniform(-2, 2, (600, 2)), rng.uniform(-np.pi, np.pi, 600)])
+    fp = footprint(poses, np.array([0.3, 0.3, 0.3]))
+    ends = np.concatenate([fp.starts, fp.ends], axis=-2)
+    gap = np.min(bounds.wall_clearance(ends) - np.tile(fp.radii, 2), axis=-1)
+    for obstacle in known:  # the oracle: every capsule against every obstacle
+        gap = np.minimum(gap, np.min(obstacle.segment_clearance(fp.starts, fp.ends) - fp.radii, -1))
+    got = WorldModel(bounds, known).capsules_clear(fp.starts, fp.ends, fp.radii, margin)
+    assert np.array_equal(got, gap >= margin)
+    assert 0.1 < got.mean() < 0.9
+
+
 def test_add_known_updates_static_layer_and_version():
     model = WorldModel(Bounds(-1, 1, -1, 1))
     before = model.version
