@@ -16,18 +16,22 @@ a free corridor and reading its wall at the edge never fills the corridor, howev
 while single rays and the cone close in mark obstacles after a few consistent readings. Hits within
 the noise of known geometry (known obstacles, arena walls) are the known geometry's and leave the
 sensed layer alone, so known walls are not narrowed by noisy copies of themselves.
+
+Readings come in as ``RangeObservation``s; ``range_observations`` builds them from the head's
+sensor layout (``sim.sensors``), a tracked pose and the readings by sensor name.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, fields
 
 import numpy as np
 from numpy.typing import NDArray
 
-from sim.robot import Array
+from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry, head_tip
+from sim.sensors import RangeSensor
 from sim.world import Bounds
 
 Flat = NDArray[np.intp]
@@ -55,6 +59,30 @@ class RangeObservation:
             raise ValueError("range observation: need 0 <= fov < pi, max_range > 0, noise_std >= 0")
         if not (math.isnan(self.distance) or self.distance >= 0):
             raise ValueError("range observation: distance must be >= 0 or NaN")
+
+
+def range_observations(
+    sensors: Sequence[RangeSensor],
+    pose: Sequence[float] | Array,
+    ranges: Mapping[str, float],
+    geometry: RobotGeometry = DEFAULT_GEOMETRY,
+    no_hit_sigmas: float = 2.0,
+) -> list[RangeObservation]:
+    """The head's range readings (``sim.sensors`` layout) at tracked pose ``[x, y, ψ]`` as
+    observations. A missing or NaN reading is a dropout; one within ``no_hit_sigmas`` noise σ of
+    ``max_range`` means "nothing within range" (an empty reading is noisy too, then clipped)."""
+    p = np.asarray(pose, dtype=float)
+    origin = head_tip(p, geometry)
+    at = (float(origin[0]), float(origin[1]))
+    forward = float(p[2]) + math.pi  # the head leads: the body trails along ψ
+    out = []
+    for sensor in sensors:
+        d = float(ranges.get(sensor.name, math.nan))
+        fov = sensor.fov if sensor.rays > 1 else 0.0  # one ray reads along the axis only
+        hit = not math.isnan(d) and d < sensor.max_range - no_hit_sigmas * sensor.noise_std
+        angle = forward + sensor.angle
+        out.append(RangeObservation(at, angle, fov, sensor.max_range, d, hit, sensor.noise_std))
+    return out
 
 
 @dataclass(frozen=True)

@@ -27,17 +27,22 @@ can cache what they derive from the model.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from domain.occupancy import Grid, RangeObservation, SensedLayer, WorldModelSettings
+from domain.occupancy import (
+    Grid,
+    RangeObservation,
+    SensedLayer,
+    WorldModelSettings,
+    range_observations,
+)
 from sim.obstacles import Circle, Obstacle
-from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry, head_tip
-from sim.sensors import RangeSensor
+from sim.robot import Array
 from sim.world import Bounds
 
 __all__ = ["RangeObservation", "WorldModel", "WorldModelSettings", "range_observations"]
@@ -300,30 +305,6 @@ class WorldModel:
         value.flags.writeable = False  # shared with callers until the next change
         self._cache[key] = value
         return value
-
-
-def range_observations(
-    sensors: Sequence[RangeSensor],
-    pose: Sequence[float] | Array,
-    ranges: Mapping[str, float],
-    geometry: RobotGeometry = DEFAULT_GEOMETRY,
-    no_hit_sigmas: float = 2.0,
-) -> list[RangeObservation]:
-    """The head's range readings (``sim.sensors`` layout) at tracked pose ``[x, y, ψ]`` as
-    observations. A missing or NaN reading is a dropout; one within ``no_hit_sigmas`` noise σ of
-    ``max_range`` means "nothing within range" (an empty reading is noisy too, then clipped)."""
-    p = np.asarray(pose, dtype=float)
-    origin = head_tip(p, geometry)
-    at = (float(origin[0]), float(origin[1]))
-    forward = float(p[2]) + math.pi  # the head leads: the body trails along ψ
-    out = []
-    for sensor in sensors:
-        d = float(ranges.get(sensor.name, math.nan))
-        fov = sensor.fov if sensor.rays > 1 else 0.0  # one ray reads along the axis only
-        hit = not math.isnan(d) and d < sensor.max_range - no_hit_sigmas * sensor.noise_std
-        angle = forward + sensor.angle
-        out.append(RangeObservation(at, angle, fov, sensor.max_range, d, hit, sensor.noise_std))
-    return out
 
 
 def _distance_block(
