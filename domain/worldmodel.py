@@ -62,16 +62,14 @@ class WorldModel:
         self.grid = Grid(bounds, settings.resolution)
         self.version = 0
         self._known: list[Obstacle] = []
-        cap = settings.max_clearance
-        walls = bounds.wall_clearance(self._centre_grid())
-        self._known_distance = np.full(self.grid.shape, cap)  # to known obstacles only
-        self._static = np.clip(walls, 0.0, cap)  # walls and known obstacles
+        self._reset_static()
         self._sensed = SensedLayer(self.grid, settings)
         self._contact = np.zeros(self.grid.shape, dtype=bool)
         self._cache: dict[str, Any] = {}
         self._cache_version = -1
         for obstacle in known:
             self.add_known(obstacle)
+        self.version = 0  # counts changes after construction
 
     # --- layers -------------------------------------------------------------------------------
 
@@ -114,6 +112,19 @@ class WorldModel:
             np.minimum(window, dist, out=window)
             np.minimum(self._static[i0:i1, j0:j1], dist, out=self._static[i0:i1, j0:j1])
             self.version += 1
+
+    def remove_known(self, obstacle: Obstacle) -> bool:
+        """Remove a known obstacle (compared by value) and rebuild the static layer; ``False``
+        if it was not known."""
+        if obstacle not in self._known:
+            return False
+        remaining, version = [o for o in self._known if o != obstacle], self.version
+        self._known = []
+        self._reset_static()
+        for other in remaining:
+            self.add_known(other)
+        self.version = version + 1  # one change, however many obstacles were re-added
+        return True
 
     @property
     def known(self) -> tuple[Obstacle, ...]:
@@ -232,9 +243,13 @@ class WorldModel:
 
     # --- internals ----------------------------------------------------------------------------
 
-    def _centre_grid(self) -> Array:
+    def _reset_static(self) -> None:
+        """The static layer with walls only."""
+        cap = self.settings.max_clearance
         x, y = np.meshgrid(self.grid.xs, self.grid.ys, indexing="ij")
-        return np.stack([x, y], axis=-1)
+        walls = self.bounds.wall_clearance(np.stack([x, y], axis=-1))
+        self._known_distance = np.full(self.grid.shape, cap)  # to known obstacles only
+        self._static = np.clip(walls, 0.0, cap)  # walls and known obstacles
 
     def _has_dynamic(self) -> bool:
         return bool(np.any(self._sensed.occupied) or np.any(self._contact))

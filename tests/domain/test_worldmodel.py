@@ -168,6 +168,11 @@ def test_add_known_updates_static_layer_and_version():
     model.add_known(Circle(0.0, 0.0, 0.1))  # inside the first: nothing changes
     model.add_known(Circle(30.0, 0.0, 0.1))  # far outside the grid
     assert model.version == before + 1
+    assert len(model.known) == 3
+    assert model.remove_known(Circle(0.0, 0.0, 0.2)) and model.version == before + 2
+    assert not model.remove_known(Circle(0.0, 0.0, 0.2))
+    assert model.clearance_at(np.array([0.5, 0.0])) == pytest.approx(0.4, abs=1e-3)
+    assert WorldModel(Bounds(-1, 1, -1, 1), (Circle(0.0, 0.0, 0.2),)).version == 0
 
 
 # --- sensed layer ---------------------------------------------------------------------------
@@ -248,7 +253,7 @@ def test_hits_on_known_geometry_leave_the_sensed_layer_alone():
     for k in range(120):
         model.integrate(observe(world, (-1.0 + 0.01 * k, 0.0), 0.3 * math.sin(k / 5), rng))
     assert not model.sensed_occupied().any()
-    assert model.version == 2  # the two known walls, nothing since
+    assert model.version == 0  # construction is no change; nothing since
 
 
 def test_ray_clearing_removes_an_obstacle_that_left():
