@@ -179,11 +179,14 @@ class WorldModel:
     ) -> NDArray[np.bool_]:
         """Whether every capsule keeps ``margin`` clear, per leading index of ``starts`` and
         ``ends`` ``[..., C, 2]`` (radii ``[C]``). Walls and known obstacles are checked exactly;
-        sensed and contact cells by clearance samples every half cell along each axis."""
+        sensed and contact cells by clearance samples every half cell along each axis. Radius +
+        margin must stay below ``max_clearance`` (clearance saturates there)."""
         a, b = np.asarray(starts, dtype=float), np.asarray(ends, dtype=float)
         lead = a.shape[:-2]
         a, b = a.reshape(-1, *a.shape[-2:]), b.reshape(-1, *b.shape[-2:])  # [B, C, 2]
         need = np.asarray(radii, dtype=float) + margin  # [C]
+        if np.any(need >= self.settings.max_clearance):
+            raise ValueError("capsules_clear: radius + margin must stay below max_clearance")
         walls = np.minimum(self.bounds.wall_clearance(a), self.bounds.wall_clearance(b))
         ok: NDArray[np.bool_] = np.all(walls >= need, axis=-1)  # wall distance is linear: ends
         points = self._axis_samples(a, b)  # [B, C, n, 2]

@@ -136,6 +136,8 @@ def test_capsules_clear_matches_the_simulator_on_known_obstacles():
     assert 50 < want.sum() < 350  # both outcomes exercised
     single = model.capsules_clear(fp.starts[0], fp.ends[0], fp.radii)
     assert single.shape == () and bool(single) == want[0]
+    with pytest.raises(ValueError):
+        model.capsules_clear(fp.starts, fp.ends, fp.radii, margin=model.settings.max_clearance)
 
 
 @pytest.mark.parametrize("margin", [0.0, 0.03, 0.1])
