@@ -199,7 +199,8 @@ class WorldModel:
 
     def component_labels(self, min_clearance: float) -> NDArray[np.int32]:
         """Connected regions (4-connectivity, 1..n; 0 = too tight) of cells whose clearance is at
-        least ``min_clearance``; cached per threshold until ``version`` changes."""
+        least ``min_clearance`` (at most ``max_clearance``); cached per threshold until ``version``
+        changes."""
         key = f"labels:{min_clearance!r}"
         cached = self._cached(key)
         if cached is None:
