@@ -1,28 +1,37 @@
 """The sensed occupancy layer: a log-odds grid updated by range readings (ray clearing, cone hits).
 
-Every reading first clears the cells its beam (or cone) swept up to the measured range minus a
-noise margin, then places the hit on the arc at the measured range within the cone. A cone's one
-reading is the nearest hit anywhere in the cone, so the arc only says "at least one of these cells
-is occupied": the hit's evidence is shared across the arc cells in proportion to their current
-occupancy probability (cells other beams have cleared get little, cells already known occupied
-get most), and a share that does not dominate the arc can raise a cell only to a ceiling below the
-occupied threshold. So a cone that straddles a free corridor and reads its wall at the edge never
-fills the corridor: only an unambiguous hit (a single ray, a narrow arc close in, or an arc whose
-other cells were cleared by other beams) makes a cell occupied, and that takes repeated readings.
-Hits within the noise of known geometry (known obstacles, arena walls) are the known geometry's
-and leave the sensed layer alone, so known walls are not narrowed by noisy copies of themselves.
+Clearing before marking: every reading first clears the cells its ray or cone swept, up to the
+measured range minus a noise margin (2σ + half a cell; a reading of "nothing within range" clears
+the cone to ``max_range`` minus the same margin, since an obstacle just inside the range may read
+as out of it). Then the hit is placed where it may be: across the cone, over the measured range
+± 2σ. A cone's one reading is the nearest hit anywhere in the cone, so that region only says "at
+least one of these cells is occupied". Its evidence (``log_odds_hit`` in all) is shared across the
+region's cells in proportion to range likelihood x current occupancy probability, so cells other
+beams cleared get little and cells known occupied get most. A cell's share counts in full only if
+it holds most of the evidence (``dominant_share``) and the cone's arc at that range is at most a
+cell wide (``unambiguous_arc``); any other share may lift a cell only up to ``ambiguous_ceiling``,
+below the occupied threshold. Cells cleared around a wide arc prove nothing about the one left
+standing, and the same ambiguous arc read over and over is not new evidence: so a cone straddling
+a free corridor and reading its wall at the edge never fills the corridor, however long it stares,
+while single rays and the cone close in mark obstacles after a few consistent readings. Hits within
+the noise of known geometry (known obstacles, arena walls) are the known geometry's and leave the
+sensed layer alone, so known walls are not narrowed by noisy copies of themselves.
+
+Readings come in as ``RangeObservation``s; ``range_observations`` builds them from the head's
+sensor layout (``sim.sensors``), a tracked pose and the readings by sensor name.
 """
 
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, fields
 
 import numpy as np
 from numpy.typing import NDArray
 
-from sim.robot import Array
+from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry, head_tip
+from sim.sensors import RangeSensor
 from sim.world import Bounds
 
 Flat = NDArray[np.intp]
@@ -50,6 +59,30 @@ class RangeObservation:
             raise ValueError("range observation: need 0 <= fov < pi, max_range > 0, noise_std >= 0")
         if not (math.isnan(self.distance) or self.distance >= 0):
             raise ValueError("range observation: distance must be >= 0 or NaN")
+
+
+def range_observations(
+    sensors: Sequence[RangeSensor],
+    pose: Sequence[float] | Array,
+    ranges: Mapping[str, float],
+    geometry: RobotGeometry = DEFAULT_GEOMETRY,
+    no_hit_sigmas: float = 2.0,
+) -> list[RangeObservation]:
+    """The head's range readings (``sim.sensors`` layout) at tracked pose ``[x, y, ψ]`` as
+    observations. A missing or NaN reading is a dropout; one within ``no_hit_sigmas`` noise σ of
+    ``max_range`` means "nothing within range" (an empty reading is noisy too, then clipped)."""
+    p = np.asarray(pose, dtype=float)
+    origin = head_tip(p, geometry)
+    at = (float(origin[0]), float(origin[1]))
+    forward = float(p[2]) + math.pi  # the head leads: the body trails along ψ
+    out = []
+    for sensor in sensors:
+        d = float(ranges.get(sensor.name, math.nan))
+        fov = sensor.fov if sensor.rays > 1 else 0.0  # one ray reads along the axis only
+        hit = not math.isnan(d) and d < sensor.max_range - no_hit_sigmas * sensor.noise_std
+        angle = forward + sensor.angle
+        out.append(RangeObservation(at, angle, fov, sensor.max_range, d, hit, sensor.noise_std))
+    return out
 
 
 @dataclass(frozen=True)
@@ -90,11 +123,13 @@ class WorldModelSettings:
             raise ValueError("world model settings: need occupied_threshold < log_odds_max")
         if not 0 < self.dominant_share < 1:
             raise ValueError("world model settings: dominant_share must lie in (0, 1)")
-        if (
-            min(self.clear_sigmas, self.clear_margin, self.explained_sigmas, self.contact_radius)
-            < 0
-        ):
-            raise ValueError("world model settings: margins and radii must be >= 0")
+        margins = (self.clear_sigmas, self.clear_margin, self.explained_sigmas, self.contact_radius)
+        if min(*margins, self.unambiguous_arc) < 0:
+            raise ValueError(
+                "world model settings: margins, radii and unambiguous_arc must be >= 0"
+            )
+        if self.sample_step > 1:
+            raise ValueError("world model settings: sample_step above one cell would skip cells")
 
 
 class Grid:
@@ -115,6 +150,7 @@ class Grid:
 
     @property
     def shape(self) -> tuple[int, int]:
+        """``(nx, ny)``: cells along x, along y."""
         return (self.nx, self.ny)
 
     def cell_of(self, x: float, y: float) -> tuple[int, int]:
@@ -123,9 +159,11 @@ class Grid:
         return (math.floor((x - self.origin[0]) / res), math.floor((y - self.origin[1]) / res))
 
     def inside(self, i: int, j: int) -> bool:
+        """Whether cell ``(i, j)`` is on the grid."""
         return 0 <= i < self.nx and 0 <= j < self.ny
 
     def centre_of(self, i: int, j: int) -> tuple[float, float]:
+        """The world centre of cell ``(i, j)``."""
         res = self.resolution
         return (self.origin[0] + (i + 0.5) * res, self.origin[1] + (j + 0.5) * res)
 
@@ -258,7 +296,9 @@ class SensedLayer:
         explained = known_clearance[cells] <= tolerance
         p = np.where(explained, 1.0, 1.0 / (1.0 + np.exp(-self.log_odds.reshape(-1)[cells])))
         share = likelihood * p / np.sum(likelihood * p)
-        narrow = obs.fov * obs.distance <= s.unambiguous_arc * self.grid.resolution
+        narrow = (
+            obs.fov * min(obs.distance, obs.max_range) <= s.unambiguous_arc * self.grid.resolution
+        )
         sure = ~explained & (share > s.dominant_share) & narrow
         vague = ~explained & ~sure
         updates.sure_cells.append(cells[sure])

@@ -26,6 +26,7 @@ can cache what they derive from the model.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 from typing import Any
 
@@ -33,12 +34,18 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from domain.occupancy import Grid, RangeObservation, SensedLayer, WorldModelSettings
+from domain.occupancy import (
+    Grid,
+    RangeObservation,
+    SensedLayer,
+    WorldModelSettings,
+    range_observations,
+)
 from sim.obstacles import Circle, Obstacle
 from sim.robot import Array
 from sim.world import Bounds
 
-__all__ = ["RangeObservation", "WorldModel", "WorldModelSettings"]
+__all__ = ["RangeObservation", "WorldModel", "WorldModelSettings", "range_observations"]
 
 
 class WorldModel:
@@ -54,17 +61,15 @@ class WorldModel:
         self.settings = settings
         self.grid = Grid(bounds, settings.resolution)
         self.version = 0
-        self.known: list[Obstacle] = []
-        cap = settings.max_clearance
-        walls = bounds.wall_clearance(self._centre_grid())
-        self._known_distance = np.full(self.grid.shape, cap)  # to known obstacles only
-        self._static = np.clip(walls, 0.0, cap)  # walls and known obstacles
+        self._known: list[Obstacle] = []
+        self._reset_static()
         self._sensed = SensedLayer(self.grid, settings)
         self._contact = np.zeros(self.grid.shape, dtype=bool)
         self._cache: dict[str, Any] = {}
         self._cache_version = -1
         for obstacle in known:
             self.add_known(obstacle)
+        self.version = 0  # counts changes after construction
 
     # --- layers -------------------------------------------------------------------------------
 
@@ -79,18 +84,25 @@ class WorldModel:
     def add_contact(self, point: tuple[float, float]) -> None:
         """Mark a disc of ``contact_radius`` (at least the cell holding ``point``) occupied for good."""
         x, y = point
-        near = np.hypot(self._centre_grid()[..., 0] - x, self._centre_grid()[..., 1] - y)
-        disc = near <= self.settings.contact_radius
-        i, j = self.grid.cell_of(x, y)
-        if self.grid.inside(i, j):
-            disc[i, j] = True
-        if np.any(disc & ~self._contact):
-            self._contact |= disc
+        if not (math.isfinite(x) and math.isfinite(y)):
+            raise ValueError("contact point: coordinates must be finite")
+        r, grid = self.settings.contact_radius, self.grid
+        (i0, j0), (i1, j1) = grid.cell_of(x - r, y - r), grid.cell_of(x + r, y + r)
+        i0, j0, i1, j1 = max(i0, 0), max(j0, 0), min(i1 + 1, grid.nx), min(j1 + 1, grid.ny)
+        if i0 >= i1 or j0 >= j1:
+            return  # nowhere near the grid
+        disc = np.hypot(grid.xs[i0:i1, None] - x, grid.ys[None, j0:j1] - y) <= r
+        i, j = grid.cell_of(x, y)
+        if grid.inside(i, j):
+            disc[i - i0, j - j0] = True
+        window = self._contact[i0:i1, j0:j1]
+        if np.any(disc & ~window):
+            window |= disc
             self.version += 1
 
     def add_known(self, obstacle: Obstacle) -> None:
         """Add a known obstacle to the static layer (exact distances within ``max_clearance``)."""
-        self.known.append(obstacle)
+        self._known.append(obstacle)
         block = _distance_block(obstacle, self.grid, self.settings.max_clearance)
         if block is None:
             return
@@ -100,6 +112,24 @@ class WorldModel:
             np.minimum(window, dist, out=window)
             np.minimum(self._static[i0:i1, j0:j1], dist, out=self._static[i0:i1, j0:j1])
             self.version += 1
+
+    def remove_known(self, obstacle: Obstacle) -> bool:
+        """Remove a known obstacle (compared by value) and rebuild the static layer; ``False``
+        if it was not known."""
+        if obstacle not in self._known:
+            return False
+        remaining, version = [o for o in self._known if o != obstacle], self.version
+        self._known = []
+        self._reset_static()
+        for other in remaining:
+            self.add_known(other)
+        self.version = version + 1  # one change, however many obstacles were re-added
+        return True
+
+    @property
+    def known(self) -> tuple[Obstacle, ...]:
+        """The known obstacles, in the order they were added."""
+        return tuple(self._known)
 
     def occupied(self) -> NDArray[np.bool_]:
         """Combined occupancy ``[nx, ny]``: known obstacles within half a cell of the centre,
@@ -127,16 +157,18 @@ class WorldModel:
 
     def clearance(self) -> Array:
         """Metres from each cell centre to the nearest obstacle surface or wall (conservative,
-        saturated at ``max_clearance``); cached until ``version`` changes. Do not modify it."""
+        saturated at ``max_clearance``); cached until ``version`` changes (a read-only array)."""
         cached = self._cached("clearance")
         if cached is None:
-            cached = self._store("clearance", np.minimum(self._static, self._dynamic_clearance()))
+            cached = self._store("clearance", np.minimum(self._static, self._dynamic()))
         out: Array = cached
         return out
 
     def clearance_at(self, points: Array) -> Array:
         """Clearance at world points ``[..., 2]``: bilinear between cell centres, exact to the
-        walls (negative outside the bounds)."""
+        walls (negative outside the bounds). Between centres, near a convex obstacle, bilinear
+        may exceed the true distance by about resolution² / (8 x distance); ``capsules_clear``
+        measures known obstacles exactly instead."""
         pts = np.asarray(points, dtype=float)
         inner = self._interpolate(self.clearance(), pts)
         out: Array = np.minimum(inner, self.bounds.wall_clearance(pts))
@@ -159,22 +191,28 @@ class WorldModel:
     ) -> NDArray[np.bool_]:
         """Whether every capsule keeps ``margin`` clear, per leading index of ``starts`` and
         ``ends`` ``[..., C, 2]`` (radii ``[C]``). Walls and known obstacles are checked exactly;
-        sensed and contact cells by clearance samples every half cell along each axis."""
+        sensed and contact cells by clearance samples every half cell along each axis. Radius +
+        margin must stay below ``max_clearance`` (clearance saturates there)."""
         a, b = np.asarray(starts, dtype=float), np.asarray(ends, dtype=float)
         lead = a.shape[:-2]
         a, b = a.reshape(-1, *a.shape[-2:]), b.reshape(-1, *b.shape[-2:])  # [B, C, 2]
         need = np.asarray(radii, dtype=float) + margin  # [C]
+        if np.any(need >= self.settings.max_clearance):
+            raise ValueError("capsules_clear: radius + margin must stay below max_clearance")
         walls = np.minimum(self.bounds.wall_clearance(a), self.bounds.wall_clearance(b))
         ok: NDArray[np.bool_] = np.all(walls >= need, axis=-1)  # wall distance is linear: ends
+        points = self._axis_samples(a, b)  # [B, C, n, 2]
+        if self._known:
+            self._known_clear(a, b, points, need, ok)
         if self._has_dynamic():
-            ok &= self._samples_clear(a, b, need)
-        for obstacle in self.known:
-            _known_clear(obstacle, a, b, need, ok)
+            dynamic = self._interpolate(self._dynamic(), points)
+            ok &= np.all(dynamic >= need[:, None], axis=(-2, -1))
         return ok.reshape(lead)
 
     def component_labels(self, min_clearance: float) -> NDArray[np.int32]:
         """Connected regions (4-connectivity, 1..n; 0 = too tight) of cells whose clearance is at
-        least ``min_clearance``; cached per threshold until ``version`` changes."""
+        least ``min_clearance`` (at most ``max_clearance``); cached per threshold until ``version``
+        changes."""
         key = f"labels:{min_clearance!r}"
         cached = self._cached(key)
         if cached is None:
@@ -221,35 +259,62 @@ class WorldModel:
 
     # --- internals ----------------------------------------------------------------------------
 
-    def _centre_grid(self) -> Array:
+    def _reset_static(self) -> None:
+        """The static layer with walls only."""
+        cap = self.settings.max_clearance
         x, y = np.meshgrid(self.grid.xs, self.grid.ys, indexing="ij")
-        return np.stack([x, y], axis=-1)
+        walls = self.bounds.wall_clearance(np.stack([x, y], axis=-1))
+        self._known_distance = np.full(self.grid.shape, cap)  # to known obstacles only
+        self._static = np.clip(walls, 0.0, cap)  # walls and known obstacles
 
     def _has_dynamic(self) -> bool:
         return bool(np.any(self._sensed.occupied) or np.any(self._contact))
 
-    def _dynamic_clearance(self) -> Array:
-        """Clearance to sensed and contact cells: distance between centres minus half a cell."""
-        cap = self.settings.max_clearance
-        if not self._has_dynamic():
-            return np.full(self.grid.shape, cap)
-        free = ~(self._sensed.occupied | self._contact)
-        res = self.grid.resolution
-        dist = ndimage.distance_transform_edt(free) * res - 0.5 * res
-        out: Array = np.clip(dist, 0.0, cap)
+    def _dynamic(self) -> Array:
+        """Clearance to sensed and contact cells: distance between centres minus half a cell
+        (cached until ``version`` changes)."""
+        cached = self._cached("dynamic")
+        if cached is None:
+            cap = self.settings.max_clearance
+            if self._has_dynamic():
+                free = ~(self._sensed.occupied | self._contact)
+                res = self.grid.resolution
+                dist = ndimage.distance_transform_edt(free) * res - 0.5 * res
+                cached = self._store("dynamic", np.clip(dist, 0.0, cap))
+            else:
+                cached = self._store("dynamic", np.full(self.grid.shape, cap))
+        out: Array = cached
         return out
 
-    def _samples_clear(self, a: Array, b: Array, need: Array) -> NDArray[np.bool_]:
+    def _axis_samples(self, a: Array, b: Array) -> Array:
+        """Points along each capsule axis ``[..., C, n, 2]``, at most half a cell apart."""
         step = 0.5 * self.grid.resolution
         length = float(np.max(np.linalg.norm(b - a, axis=-1), initial=0.0))
         t = np.linspace(0.0, 1.0, max(2, int(np.ceil(length / step)) + 1))
-        pts = a[..., None, :] + t[:, None] * (b - a)[..., None, :]  # [..., C, n, 2]
-        dynamic = self._cached("dynamic")
-        if dynamic is None:
-            dynamic = self._store("dynamic", self._dynamic_clearance())
-        values = self._interpolate(dynamic, pts)
-        out: NDArray[np.bool_] = np.all(values >= need[:, None], axis=(-2, -1))
-        return out
+        points: Array = a[..., None, :] + t[:, None] * (b - a)[..., None, :]
+        return points
+
+    def _known_clear(
+        self, a: Array, b: Array, points: Array, need: Array, ok: NDArray[np.bool_]
+    ) -> None:
+        """Clear ``ok`` ``[B]`` where a capsule comes within ``need`` of a known obstacle.
+
+        The exact static clearance at cell centres is 1-Lipschitz, so its interpolation at the
+        axis samples bounds the true clearance on the axis within half a cell diagonal plus a
+        quarter cell (the samples' spacing): capsules far from known geometry pass, capsules deep
+        in it fail, and only the rest are measured exactly against the obstacles.
+        """
+        res = self.grid.resolution
+        nearest = self._interpolate(self._static, points).min(axis=-1)  # [B, C]
+        corner = res * math.sqrt(0.5)
+        blocked = np.any(nearest + corner < need, axis=-1)
+        unsure = np.flatnonzero(ok & ~blocked & np.any(nearest - corner - res / 4 < need, axis=-1))
+        ok &= ~blocked
+        if unsure.size:
+            sub = np.ones(unsure.size, dtype=bool)
+            for obstacle in self._known:
+                _obstacle_clear(obstacle, a[unsure], b[unsure], need, sub)
+            ok[unsure] = sub
 
     def _interpolate(self, grid: Array, pts: Array) -> Array:
         """Bilinear between cell centres (nearest beyond the outer centres), by fancy indexing:
@@ -276,6 +341,7 @@ class WorldModel:
         return self._cache.get(key)
 
     def _store(self, key: str, value: Any) -> Any:
+        value.flags.writeable = False  # shared with callers until the next change
         self._cache[key] = value
         return value
 
@@ -311,7 +377,7 @@ def _point_edges_distance(pts: Array, ea: Array, eb: Array) -> Array:
     return best
 
 
-def _known_clear(
+def _obstacle_clear(
     obstacle: Obstacle, a: Array, b: Array, need: Array, ok: NDArray[np.bool_]
 ) -> None:
     """Clear ``ok`` (``[B]``) where a capsule of ``a-b`` ``[B, C, 2]`` comes within ``need`` of

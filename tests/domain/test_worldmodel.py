@@ -1,0 +1,411 @@
+"""World model: exact static clearance, sensed layer without phantoms, contacts, queries, version."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from domain.worldmodel import RangeObservation, WorldModel, WorldModelSettings, range_observations
+from sim.obstacles import Circle, Obstacle, Polygon, point_segment_distance, rectangle, unit_vectors
+from sim.robot import head_tip
+from sim.sensors import SensorSuite, forward_ir, range_ring
+from sim.world import Bounds, World, footprint
+
+SIGMA = 0.02
+IR_FOV = math.radians(10)
+RES = WorldModelSettings().resolution
+# A 0.30 m corridor along x (inner faces at y = ±0.15) whose walls reach the arena's ends.
+CORRIDOR = (rectangle(0.0, 0.25, 4.0, 0.2), rectangle(0.0, -0.25, 4.0, 0.2))
+
+
+def sensor_layout(heading: float) -> list[tuple[float, float, float, int]]:
+    """The project's layout: forward IR (10° cone, 0.8 m) and a ring of 8 rays (1.0 m, 45°).
+    Rows: axis angle, fov, max range, rays used to find the cone's nearest hit."""
+    ir = [(heading, IR_FOV, 0.8, 21)]
+    return ir + [(heading + k * math.pi / 4, 0.0, 1.0, 1) for k in range(8)]
+
+
+def observe(
+    world: World,
+    origin: tuple[float, float],
+    heading: float,
+    rng: np.random.Generator,
+    ir_only: bool = False,
+) -> list[RangeObservation]:
+    """Readings by ray casting the true world: each sensor's nearest hit, noisy when it hit."""
+    out = []
+    layout = sensor_layout(heading)[: 1 if ir_only else None]
+    for axis, fov, reach, rays in layout:
+        angles = axis + np.linspace(-fov / 2, fov / 2, rays)
+        dist, what = world.ray_cast(np.asarray(origin), unit_vectors(angles), reach)
+        k = int(np.argmin(dist))
+        hit = bool(what[k] != -2)
+        value = float(dist[k])
+        if hit:
+            value = float(np.clip(value + rng.normal(0.0, SIGMA), 0.0, reach))
+        out.append(RangeObservation(origin, float(axis), fov, reach, value, hit, SIGMA))
+    return out
+
+
+def surface_distance(world: World, points: np.ndarray) -> np.ndarray:
+    """Unsigned distance from points [N, 2] to the nearest true obstacle surface or wall."""
+    best = np.abs(world.bounds.wall_clearance(points))
+    for obstacle in world.obstacles:
+        if isinstance(obstacle, Circle):
+            d = np.abs(np.linalg.norm(points - obstacle.centre, axis=-1) - obstacle.radius)
+        else:
+            ea, eb = obstacle.edges
+            d = point_segment_distance(points[:, None, :], ea, eb).min(axis=-1)
+        best = np.minimum(best, d)
+    return best
+
+
+def exact_clearance(bounds: Bounds, obstacles: tuple[Obstacle, ...], points: np.ndarray):
+    """The oracle: sim's own geometry (a zero-length segment is a point), min with the walls."""
+    best = bounds.wall_clearance(points)
+    for obstacle in obstacles:
+        best = np.minimum(best, obstacle.segment_clearance(points, points))
+    return best
+
+
+def all_centres(model: WorldModel) -> np.ndarray:
+    x, y = np.meshgrid(model.grid.xs, model.grid.ys, indexing="ij")
+    return np.stack([x, y], axis=-1)
+
+
+def sensed_centres(model: WorldModel) -> np.ndarray:
+    return model.grid.centres(np.flatnonzero(model.sensed_occupied()))
+
+
+def ray(origin, angle, distance, hit=True, fov=0.0, max_range=1.0, noise=0.0):
+    return RangeObservation(origin, angle, fov, max_range, distance, hit, noise)
+
+
+# --- static layer ---------------------------------------------------------------------------
+
+
+def test_static_clearance_is_exact_at_cell_centres():
+    bounds = Bounds(-2.0, 2.0, -1.5, 1.5)
+    known = (
+        Circle(0.7, 0.4, 0.25),
+        rectangle(-0.8, -0.3, 0.6, 0.2, 0.6),
+        Polygon(((0.2, -1.0), (0.9, -0.8), (0.4, -0.3))),
+    )
+    model = WorldModel(bounds, known)
+    centres = all_centres(model)
+    cap = model.settings.max_clearance
+    expected = np.clip(exact_clearance(bounds, known, centres), 0.0, cap)
+    np.testing.assert_allclose(model.clearance(), expected, atol=1e-12)
+    # Occupied: known obstacles within half a cell of the centre (a thin wall is not lost).
+    assert np.array_equal(
+        model.occupied(), exact_clearance(Bounds(-9, 9, -9, 9), known, centres) < RES / 2 - 1e-9
+    )
+
+
+@pytest.mark.parametrize("shift", [0.0, 0.01, 0.025, 0.037])
+def test_known_corridor_is_exactly_030_wide_and_the_robot_fits(shift):
+    bounds = Bounds(-2.0, 2.0, -1.0 + shift, 1.0 + shift)  # every alignment of cells to the walls
+    model = WorldModel(bounds, CORRIDOR)
+    inside = np.abs(model.grid.ys) < 0.15
+    np.testing.assert_allclose(model.clearance()[40, inside], 0.15 - np.abs(model.grid.ys[inside]))
+    # The robot is 0.15 m wide: straight along the axis it keeps 0.075 m from each wall.
+    poses = np.array([[x, 0.0, 0.0] for x in np.linspace(-1.0, 0.9, 12)])
+    fp = footprint(poses, np.zeros(3))
+    assert model.capsules_clear(fp.starts, fp.ends, fp.radii, margin=0.074).all()
+    assert not model.capsules_clear(fp.starts, fp.ends, fp.radii, margin=0.076).any()
+    assert model.connected((-1.8, 0.0), (1.8, 0.0), 0.075)
+    assert not model.connected((-1.8, 0.0), (1.8, 0.0), 0.16)
+
+
+def test_capsules_clear_matches_the_simulator_on_known_obstacles():
+    bounds = Bounds(-1.5, 1.5, -1.5, 1.5)
+    known = (Circle(0.3, 0.2, 0.2), rectangle(-0.5, -0.4, 0.5, 0.3, 0.4))
+    world = World(bounds, known)
+    rng = np.random.default_rng(3)
+    poses = np.column_stack([rng.uniform(-1.2, 1.2, (400, 2)), rng.uniform(-np.pi, np.pi, 400)])
+    joints = np.array([0.5, -0.5, 0.5])
+    fp = footprint(poses, joints)
+    model = WorldModel(bounds, known)
+    got = model.capsules_clear(fp.starts, fp.ends, fp.radii)
+    want = np.array([world.contact(footprint(p, joints)) is None for p in poses])
+    assert got.shape == (400,)
+    assert np.array_equal(got, want)
+    assert 50 < want.sum() < 350  # both outcomes exercised
+    single = model.capsules_clear(fp.starts[0], fp.ends[0], fp.radii)
+    assert single.shape == () and bool(single) == want[0]
+    with pytest.raises(ValueError):
+        model.capsules_clear(fp.starts, fp.ends, fp.radii, margin=model.settings.max_clearance)
+
+
+@pytest.mark.parametrize("margin", [0.0, 0.03, 0.1])
+def test_capsules_clear_is_exact_among_many_known_obstacles(margin):
+    rng = np.random.default_rng(7)
+    circles = [Circle(*rng.uniform(-2.3, 2.3, 2), rng.uniform(0.05, 0.3)) for _ in range(20)]
+    bars = [rectangle(*rng.uniform(-2.3, 2.3, 2), 0.5, 0.08, rng.uniform(0, 3)) for _ in range(20)]
+    known = (*circles, *bars)
+    bounds = Bounds(-2.5, 2.5, -2.5, 2.5)
+    poses = np.column_stack([rng.uniform(-2, 2, (600, 2)), rng.uniform(-np.pi, np.pi, 600)])
+    fp = footprint(poses, np.array([0.3, 0.3, 0.3]))
+    ends = np.concatenate([fp.starts, fp.ends], axis=-2)
+    gap = np.min(bounds.wall_clearance(ends) - np.tile(fp.radii, 2), axis=-1)
+    for obstacle in known:  # the oracle: every capsule against every obstacle
+        gap = np.minimum(gap, np.min(obstacle.segment_clearance(fp.starts, fp.ends) - fp.radii, -1))
+    got = WorldModel(bounds, known).capsules_clear(fp.starts, fp.ends, fp.radii, margin)
+    assert np.array_equal(got, gap >= margin)
+    assert 0.1 < got.mean() < 0.9
+
+
+def test_add_known_updates_static_layer_and_version():
+    model = WorldModel(Bounds(-1, 1, -1, 1))
+    before = model.version
+    model.add_known(Circle(0.0, 0.0, 0.2))
+    assert model.version == before + 1
+    assert model.clearance()[model.cell_of(0.5, 0.0)] == pytest.approx(
+        math.hypot(0.525, 0.025) - 0.2
+    )
+    assert model.clearance_at(np.array([0.5, 0.0])) == pytest.approx(0.3, abs=1e-3)
+    model.add_known(Circle(0.0, 0.0, 0.1))  # inside the first: nothing changes
+    model.add_known(Circle(30.0, 0.0, 0.1))  # far outside the grid
+    assert model.version == before + 1
+    assert len(model.known) == 3
+    assert model.remove_known(Circle(0.0, 0.0, 0.2)) and model.version == before + 2
+    assert not model.remove_known(Circle(0.0, 0.0, 0.2))
+    assert model.clearance_at(np.array([0.5, 0.0])) == pytest.approx(0.4, abs=1e-3)
+    assert WorldModel(Bounds(-1, 1, -1, 1), (Circle(0.0, 0.0, 0.2),)).version == 0
+
+
+# --- sensed layer ---------------------------------------------------------------------------
+
+
+def phantom_arena() -> World:
+    obstacles = (
+        Circle(0.0, 0.0, 0.3, known=False),
+        rectangle(1.5, 0.0, 0.1, 1.2),
+        rectangle(-1.2, 1.2, 0.4, 0.2, 0.5),
+        Polygon(((-1.0, -1.3), (-0.6, -1.5), (-0.8, -1.0))),
+    )
+    return World(Bounds(-2, 2, -2, 2), obstacles)
+
+
+def drive(model: WorldModel, world: World, seconds: float = 60.0, seed: int = 0) -> int:
+    """The head circles the arena, swinging its heading, read at 4 Hz; returns version bumps."""
+    rng = np.random.default_rng(seed)
+    bumps, version = 0, model.version
+    for k in range(int(seconds * 4)):
+        t = k / 4
+        a = 0.1 * t
+        heading = a + math.pi / 2 + 0.8 * math.sin(0.5 * t)
+        model.integrate(observe(world, (math.cos(a), math.sin(a)), heading, rng))
+        bumps += model.version != version
+        version = model.version
+    return bumps
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_noise_leaves_no_persistent_phantoms_and_real_obstacles_are_marked(seed):
+    world = phantom_arena()
+    model = WorldModel(world.bounds)  # nothing known: every obstacle is sensed
+    drive(model, world, seed=seed)
+    centres = sensed_centres(model)
+    assert len(centres) > 30
+    assert surface_distance(world, centres).max() <= 2 * SIGMA + RES
+    # The hidden circle, seen over and over, is occupied near its surface.
+    ring = np.abs(np.linalg.norm(centres, axis=-1) - 0.3) <= 2 * SIGMA + RES
+    assert ring.sum() >= 20
+    assert model.clearance_at(np.array([0.0, 0.33])) < 0.05
+
+
+def test_cone_straddling_a_corridor_does_not_block_it():
+    world = World(Bounds(-2.0, 2.0, -1.0, 1.0), CORRIDOR)
+    for y0, degrees in [(0.0, 12), (0.0, 20), (0.04, 8), (-0.06, 24), (-0.03, 16), (0.0, 40)]:
+        model = WorldModel(world.bounds)
+        rng = np.random.default_rng(degrees)
+        for _ in range(80):  # staring: the same ambiguous arc, over and over
+            model.integrate(observe(world, (-0.5, y0), math.radians(degrees), rng, ir_only=True))
+        centres = sensed_centres(model)
+        assert not np.any(np.abs(centres[:, 1]) < 0.08), (y0, degrees, centres)
+        assert model.connected((-1.9, 0.0), (1.9, 0.0), 0.07)
+        assert model.log_odds.max() <= model.settings.log_odds_max
+
+
+def test_driving_down_an_unknown_corridor_keeps_it_passable():
+    world = World(Bounds(-2.0, 2.0, -1.0, 1.0), CORRIDOR)
+    model = WorldModel(world.bounds)
+    rng = np.random.default_rng(1)
+    for k in range(240):
+        t = k / 4
+        origin = (-1.3 + 0.01 * t, 0.03 * math.sin(0.7 * t))
+        model.integrate(observe(world, origin, 0.35 * math.sin(0.4 * t), rng))
+    centres = sensed_centres(model)
+    assert len(centres) > 20  # the walls were seen
+    assert not np.any(np.abs(centres[:, 1]) < 0.08)
+    xs = np.linspace(-1.3, 1.3, 40)
+    axis = np.stack([xs, np.zeros_like(xs)], axis=-1)
+    assert model.capsules_clear(axis[:-1, None], axis[1:, None], np.array([0.07])).all()
+    assert model.connected((-1.9, 0.0), (1.9, 0.0), 0.07)
+
+
+def test_hits_on_known_geometry_leave_the_sensed_layer_alone():
+    world = World(Bounds(-2.0, 2.0, -1.0, 1.0), CORRIDOR)
+    model = WorldModel(world.bounds, CORRIDOR)
+    rng = np.random.default_rng(4)
+    for k in range(120):
+        model.integrate(observe(world, (-1.0 + 0.01 * k, 0.0), 0.3 * math.sin(k / 5), rng))
+    assert not model.sensed_occupied().any()
+    assert model.version == 0  # construction is no change; nothing since
+
+
+def test_ray_clearing_removes_an_obstacle_that_left():
+    bounds = Bounds(-1.0, 1.0, -1.0, 1.0)
+    model = WorldModel(bounds)
+    became = []
+    for _ in range(3):
+        became += model.integrate([ray((0.0, 0.0), 0.0, 0.5)])
+    assert became == [model.centre_of(*model.cell_of(0.5, 0.0))]
+    assert model.sensed_occupied()[model.cell_of(0.5, 0.0)]
+    assert model.integrate([ray((0.0, 0.0), 0.0, 0.5)]) == []  # already occupied: not new
+    version = model.version
+    for _ in range(10):  # the obstacle is gone: "nothing within range"
+        model.integrate([ray((0.0, 0.0), 0.0, 1.0, hit=False)])
+    assert not model.sensed_occupied().any()
+    assert model.version == version + 1
+    assert model.log_odds.min() >= model.settings.log_odds_min
+
+
+def test_a_wide_cone_reading_nothing_clears_its_whole_sector():
+    model = WorldModel(Bounds(-1.0, 1.0, -1.0, 1.0))
+    model.integrate([ray((0.0, 0.0), 0.0, 0.8, hit=False, fov=math.radians(40), max_range=0.8)])
+    cleared = model.log_odds < 0
+    assert cleared[model.cell_of(0.6, 0.2)] and cleared[model.cell_of(0.6, -0.2)]
+    assert not cleared[model.cell_of(0.6, 0.3)] and not cleared[model.cell_of(-0.2, 0.0)]
+    assert not cleared[model.cell_of(0.85, 0.0)]
+
+
+def test_single_cone_hit_is_spread_thinly_over_its_arc():
+    model = WorldModel(Bounds(-1.0, 1.0, -1.0, 1.0))
+    model.integrate([ray((0.0, 0.0), 0.0, 0.7, fov=IR_FOV, max_range=0.8, noise=SIGMA)])
+    raised = model.log_odds[model.log_odds > 0]
+    assert raised.size >= 3
+    assert raised.max() < model.settings.log_odds_hit / 2
+    assert raised.sum() == pytest.approx(model.settings.log_odds_hit)
+
+
+def test_dropout_changes_nothing():
+    model = WorldModel(Bounds(-1.0, 1.0, -1.0, 1.0))
+    assert model.integrate([ray((0.0, 0.0), 0.0, math.nan)]) == []
+    assert model.version == 0 and not model.log_odds.any()
+
+
+def test_version_is_stable_when_nothing_changes():
+    world = World(Bounds(-1.0, 1.0, -1.0, 1.0))
+    model = WorldModel(world.bounds)
+    rng = np.random.default_rng(5)
+    clearance = model.clearance()
+    for k in range(40):  # an empty arena: wall hits are the walls', open space stays free
+        model.integrate(observe(world, (0.3 * math.cos(k / 7), 0.0), k / 3, rng))
+    assert model.version == 0
+    assert model.clearance() is clearance  # cached
+
+
+# --- contact, clearance, queries --------------------------------------------------------------
+
+
+def test_contact_marks_persist_and_shape_clearance():
+    model = WorldModel(Bounds(-1.0, 1.0, -1.0, 1.0))
+    model.add_contact((0.31, 0.02))
+    assert model.version == 1
+    occupied = model.occupied()
+    assert occupied[model.cell_of(0.31, 0.02)] and 1 <= occupied.sum() <= 9
+    assert model.clearance()[model.cell_of(0.31, 0.02)] == 0.0
+    for _ in range(10):  # readings straight through it do not erase a contact
+        model.integrate([ray((0.0, 0.0), 0.0, 1.0, hit=False)])
+    assert model.occupied()[model.cell_of(0.31, 0.02)]
+    model.add_contact((0.31, 0.02))
+    assert model.version == 1
+    assert model.to_dict()["contact"]
+
+
+def test_clearance_is_a_conservative_distance_transform_combined_with_walls():
+    model = WorldModel(Bounds(-1.0, 1.0, -1.0, 1.0))
+    model.add_contact((0.025, 0.025))  # exactly one cell: radius 0
+    model_small = WorldModel(
+        Bounds(-1.0, 1.0, -1.0, 1.0), settings=WorldModelSettings(contact_radius=0.0)
+    )
+    model_small.add_contact((0.025, 0.025))
+    clearance = model_small.clearance()
+    i, j = model_small.cell_of(0.025, 0.025)
+    assert clearance[i + 4, j] == pytest.approx(4 * RES - RES / 2)
+    assert clearance[i + 3, j + 4] == pytest.approx(5 * RES - RES / 2)
+    assert clearance[0, j] == pytest.approx(RES / 2)  # the wall is nearer
+    # Between centres: bilinear; outside the bounds: negative.
+    assert model_small.clearance_at(np.array([0.25, 0.025])) == pytest.approx(0.2)
+    assert model_small.clearance_at(np.array([[1.1, 0.0], [0.0, -1.05]])).max() < 0
+    assert model.clearance()[i, j] == 0.0
+
+
+def test_component_labels_and_connected():
+    wall_with_gap = (rectangle(0.0, 0.65, 0.1, 0.7), rectangle(0.0, -0.45, 0.1, 1.1))  # y 0.1-0.3
+    model = WorldModel(Bounds(-1.0, 1.0, -1.0, 1.0), wall_with_gap)
+    assert model.connected((-0.5, 0.0), (0.5, 0.0), 0.07)
+    assert not model.connected((-0.5, 0.0), (0.5, 0.0), 0.08)
+    labels = model.component_labels(0.08)
+    assert labels.dtype == np.int32 and labels.max() == 2
+    assert not model.connected((-0.5, 0.0), (5.0, 0.0), 0.0)  # outside the grid
+    model.add_contact((0.0, 0.2))
+    assert not model.connected((-0.5, 0.0), (0.5, 0.0), 0.07)
+
+
+def test_cells_and_export():
+    model = WorldModel(Bounds(-1.0, 1.02, -0.5, 0.5))
+    assert model.occupied().shape == (41, 20)  # the last column overhangs the bounds
+    assert model.cell_of(-1.0, -0.5) == (0, 0)
+    assert model.centre_of(*model.cell_of(0.33, 0.11)) == pytest.approx((0.325, 0.125))
+    for _ in range(2):
+        model.integrate([ray((0.0, 0.0), math.pi / 2, 0.3)])
+    data = json.loads(json.dumps(model.to_dict()))
+    assert data["resolution"] == RES and data["origin"] == [-1.0, -0.5] and data["size"] == [41, 20]
+    assert data["sensed"] == [[0.025, 0.325]] or data["sensed"] == [[-0.025, 0.325]]
+    assert data["contact"] == [] and data["version"] == model.version
+
+
+def test_simulator_readings_become_observations():
+    hidden = (Circle(-0.8, 0.05, 0.15, known=False), rectangle(0.7, 0.0, 0.1, 1.0, known=False))
+    world = World(Bounds(-2.0, 2.0, -2.0, 2.0), hidden)
+    sensors = forward_ir(noise_std=SIGMA) + range_ring(8, 1.0, SIGMA)
+    suite = SensorSuite(sensors, rng=np.random.default_rng(6))
+    pose = np.array([0.0, 0.0, 0.1])  # the head faces ψ + π: towards the circle
+    model = WorldModel(world.bounds)
+    for _ in range(6):
+        readings = suite.read(world, pose, np.zeros(3), dropped=frozenset({"ring3"}))
+        obs = range_observations(sensors, pose, readings.ranges)
+        model.integrate(obs)
+    assert obs[0].origin == pytest.approx(tuple(head_tip(pose)))
+    assert obs[0].angle == pytest.approx(0.1 + math.pi) and obs[0].fov == sensors[0].fov
+    assert obs[1].fov == 0.0 and obs[2].angle == pytest.approx(0.1 + math.pi + math.pi / 4)
+    seen = [readings.hits[s.name] != -2 for s in sensors]
+    assert [o.hit for o in obs] == [
+        h and s.name != "ring3" for h, s in zip(seen, sensors, strict=True)
+    ]
+    assert sum(seen) >= 3 and not all(seen)  # noisy empty readings (< max_range) are not hits
+    assert math.isnan(obs[4].distance)  # ring3 dropped out
+    centres = sensed_centres(model)
+    assert len(centres) >= 1
+    assert surface_distance(world, centres).max() <= 2 * SIGMA + RES
+
+
+def test_invalid_settings_and_observations_are_rejected():
+    with pytest.raises(ValueError):
+        WorldModelSettings(resolution=0.0)
+    with pytest.raises(ValueError):
+        WorldModelSettings(ambiguous_ceiling=2.0)
+    with pytest.raises(ValueError):
+        WorldModelSettings(sample_step=1.5)
+    with pytest.raises(ValueError):
+        WorldModel(Bounds()).add_contact((math.nan, 0.0))
+    with pytest.raises(ValueError):
+        RangeObservation((0.0, 0.0), 0.0, -0.1, 1.0, 0.5, True)
+    with pytest.raises(ValueError):
+        RangeObservation((0.0, math.inf), 0.0, 0.0, 1.0, 0.5, True)
