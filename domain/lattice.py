@@ -148,7 +148,9 @@ class MotionTable:
                 c = self.centroid(end)
                 dk = round(float(motion.end[2]) / self.settings.step)
                 self.deltas[k, m] = (round(c[0] / r), round(c[1] / r), dk)
-                swept = compose(start, _thin(motion.swept, reach)[1:])  # the start is checked
+                # The start pose too: a state's representative pose is where the previous move
+                # landed, snapped to the lattice, so it was not checked by that move.
+                swept = compose(start, _thin(motion.swept, reach))
                 fp = footprint(swept, self.joints, self.geometry)
                 pts, need = _capsule_samples(fp.starts, fp.ends, fp.radii)
                 seg.append(sum(len(p) for p in pts_k))

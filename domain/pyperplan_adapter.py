@@ -161,8 +161,12 @@ def intern(task: Task, name: str | None = None) -> IndexedTask:
     return IndexedTask(name or task.name, facts, conv(task.initial_state), conv(task.goals), ops)
 
 
-def parse_and_ground(domain_pddl: str, problem_pddl: str) -> IndexedTask:
-    """Parse PDDL text in process (no temporary files) and ground it with pyperplan."""
+def parse_and_ground(
+    domain_pddl: str, problem_pddl: str, remove_irrelevant: bool = True
+) -> IndexedTask:
+    """Parse PDDL text in process (no temporary files) and ground it with pyperplan
+    (``remove_irrelevant=False`` keeps effects that cannot lead to the goal, as a direct
+    grounding does)."""
     parser = Parser(None)
     parser.domInput = domain_pddl
     parser.probInput = problem_pddl
@@ -171,7 +175,7 @@ def parse_and_ground(domain_pddl: str, problem_pddl: str) -> IndexedTask:
         problem = parser.parse_problem(domain, read_from_file=False)
     except Exception as exc:  # pyperplan raises bare exceptions and SystemExit-free errors
         raise PlanningError(f"PDDL does not parse: {exc}") from exc
-    return intern(grounding.ground(problem))
+    return intern(grounding.ground(problem, remove_irrelevant_operators=remove_irrelevant))
 
 
 @dataclass

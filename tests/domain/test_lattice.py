@@ -1,0 +1,193 @@
+"""The primitive lattice: grounding equals pyperplan's, plans are valid and clear, limits, reasons."""
+
+import math
+import os
+import subprocess
+import sys
+import threading
+
+import numpy as np
+import pytest
+
+from domain.lattice import LatticeSettings, compose, motion_table
+from domain.lattice_pddl import lattice_domain, lattice_problem
+from domain.lattice_planner import LatticePlanner, LegGoal
+from domain.lattice_task import LatticeTask
+from domain.pyperplan_adapter import parse_and_ground, search_task, validate_plan
+from domain.worldmodel import WorldModel
+from primitives.library import load_bundled
+from sim.obstacles import Circle, rectangle
+from sim.world import Bounds, World, footprint
+
+LIB = load_bundled()
+SETTINGS = LatticeSettings()
+STRAIGHT = motion_table(LIB, "straight", (0.0, 0.0, 0.0), SETTINGS)
+# Whole-lattice groundings (for pyperplan's own heuristics and the export check) stay small.
+COARSE = LatticeSettings(resolution=0.2, orientations=16)
+COARSE_STRAIGHT = motion_table(LIB, "straight", (0.0, 0.0, 0.0), COARSE)
+
+
+def planner(bounds: Bounds, **kw) -> LatticePlanner:
+    return LatticePlanner(bounds, SETTINGS, **kw)
+
+
+def plan(bounds, obstacles, pose, goals, ordered=True, **kw):
+    world = WorldModel(bounds, obstacles)
+    p = planner(bounds, **kw)
+    assert STRAIGHT is not None
+    legs = [LegGoal(i, x, y, 0.1) for i, (x, y) in enumerate(goals)]
+    return p, world, p.plan(
+        STRAIGHT, world.clearance_at, world.version, pose, legs, ordered,
+        static=(world.static_clearance_at, world.static_version),
+    )
+
+
+def operator_table(operators) -> set:
+    def names(facts):
+        return frozenset(str(f) for f in facts)
+
+    return {
+        (o.name, names(o.preconditions), names(o.add_effects), names(o.del_effects))
+        for o in operators
+    }
+
+
+def test_direct_grounding_equals_pyperplans_grounding_of_the_export() -> None:
+    bounds = Bounds(-1.0, 1.0, -1.0, 1.0)
+    world = WorldModel(bounds, [Circle(0.7, 0.7, 0.15)])
+    grid = LatticePlanner(bounds, COARSE).grid
+    assert COARSE_STRAIGHT is not None
+    start = (5, 5, 0)  # centroid at the middle of the 2 m x 2 m arena, heading 0
+    task = LatticeTask(grid, COARSE_STRAIGHT, world.clearance_at, start, (0.3, 0.0), 0.15, 0.01, 0.0)
+    task.ground_all()  # the whole reachable lattice
+    assert len(task.operators) > 100
+    problem = lattice_problem(task, "straight").text()
+    # Without relevance pruning (pyperplan drops the moves into dead ends by default).
+    pyperplans = parse_and_ground(lattice_domain().text(), problem, remove_irrelevant=False)
+    assert operator_table(task.operators) == operator_table(pyperplans.operators)
+    assert {str(f) for f in task.initial_state} == {str(f) for f in pyperplans.initial_state}
+    assert {str(f) for f in task.goals} == {str(f) for f in pyperplans.goals}
+
+
+def test_plans_run_library_primitives_and_keep_their_swept_footprint_clear() -> None:
+    bounds = Bounds(-4, 4, -4, 4)
+    obstacles = [rectangle(0.0, 0.0, 0.4, 3.0), Circle(-2.0, 1.5, 0.4)]
+    p, world, result = plan(bounds, obstacles, (2.0, 0.3, 0.0), [(-2.5, -0.5)])
+    assert result.solved, result.reason
+    moves = [a for a in result.actions if a.name == "move"]
+    assert moves and result.actions[-1].name == "visit" and result.actions[-1].goal == 0
+    truth = World(bounds, tuple(obstacles))
+    here = np.array(p.pose_of(STRAIGHT, p.key_of(STRAIGHT, (2.0, 0.3, 0.0))))
+    for a in moves:
+        entry = LIB.get(a.primitive)  # every move names a library primitive
+        assert entry.family == "lattice" and a.duration == entry.rollout.duration
+        swept = compose(here, np.asarray(entry.swept))
+        for pose in swept:
+            assert truth.contact(footprint(pose, np.zeros(3))) is None
+        here = np.array(a.target)
+    head = np.array(result.actions[-1].target[:2])
+    assert math.dist(head, (-2.5, -0.5)) <= 0.06
+
+
+def test_the_plan_is_valid_on_the_task_and_the_export_solves_with_pyperplan() -> None:
+    bounds = Bounds(-2.0, 2.0, -2.0, 2.0)
+    p, world, result = plan(bounds, [Circle(0.0, 0.0, 0.3)], (0.4, 1.2, 0.0), [(-1.2, -1.0)])
+    assert result.solved and result.task is not None
+    result.task.operators = result.task.operators_seen()  # what the search generated
+    assert validate_plan(result.task, result.pddl_plan) == (True, "valid")
+    exported = parse_and_ground(
+        lattice_domain().text(), lattice_problem(result.task, "straight").text()
+    )
+    again = search_task(exported, "astar", "blind", time_limit=30)
+    assert again.solved
+    assert validate_plan(exported, result.pddl_plan) == (True, "valid")
+
+
+def test_unordered_goals_are_ordered_by_the_distance_table() -> None:
+    bounds = Bounds(-4, 4, -4, 4)
+    goals = [(3.0, 3.0), (-3.0, -3.0), (2.5, 2.0)]
+    _, _, given = plan(bounds, [], (0.0, 0.0, 0.0), goals, ordered=True)
+    _, _, best = plan(bounds, [], (0.0, 0.0, 0.0), goals, ordered=False)
+    assert given.solved and best.solved
+    assert given.order == [0, 1, 2]
+    assert best.order in ([1, 2, 0], [2, 0, 1])  # never crosses the arena twice
+    assert len(best.actions) < len(given.actions)
+
+
+def test_enclosed_goals_are_unreachable_with_the_cause() -> None:
+    bounds = Bounds(-4, 4, -4, 4)
+    walls = [rectangle(2.0, 2.0 + d, 1.6, 0.2) for d in (-0.7, 0.7)]
+    walls += [rectangle(2.0 + d, 2.0, 0.2, 1.6) for d in (-0.7, 0.7)]
+    _, _, result = plan(bounds, walls, (-2.0, -2.0, 0.0), [(2.0, 2.0)])
+    assert result.status == "unreachable"
+    assert result.reason == "unreachable: goal 0 at (2, 2) enclosed by known obstacles"
+
+
+def test_a_gap_narrower_than_the_body_is_unreachable_and_a_030_corridor_is_not() -> None:
+    bounds = Bounds(-3, 3, -3, 3)
+
+    def barrier(gap: float) -> list:
+        half = (6 - gap) / 4
+        return [rectangle(0.0, 3 - half, 0.3, 2 * half), rectangle(0.0, -3 + half, 0.3, 2 * half)]
+
+    _, _, narrow = plan(bounds, barrier(0.12), (1.5, 0.0, 0.0), [(-1.5, 0.0)])
+    assert narrow.status in ("unreachable", "unsolvable")
+    assert narrow.reason.startswith("unreachable")
+    _, _, corridor = plan(bounds, barrier(0.30), (1.5, 0.0, 0.0), [(-1.5, 0.0)])
+    assert corridor.solved, corridor.reason
+
+
+def test_time_limit_and_cancellation_end_the_search() -> None:
+    bounds = Bounds(-10, 10, -10, 10)
+    world = WorldModel(bounds, [])
+    assert STRAIGHT is not None
+    goal = [LegGoal(0, -9.0, -9.0, 0.1)]
+    cancel = threading.Event()
+    cancel.set()
+    p = planner(bounds)
+    out = p.plan(STRAIGHT, world.clearance_at, world.version, (9.0, 9.0, 0.0), goal, True, cancel)
+    assert out.status == "cancelled"
+    # A blind search cannot cross a 20 m arena in 0.2 s: it ends, it does not hang.
+    slow = planner(bounds, search="astar", heuristic="blind", time_limit=0.2)
+    out = slow.plan(STRAIGHT, world.clearance_at, world.version, (9.0, 9.0, 0.0), goal, True)
+    assert out.status == "timeout" and "planning timeout" in out.reason
+
+
+def test_pyperplan_heuristics_stay_selectable_on_small_lattices() -> None:
+    bounds = Bounds(-1.0, 1.0, -1.0, 1.0)
+    world = WorldModel(bounds, [])
+    assert COARSE_STRAIGHT is not None
+    for h in ("hff", "lmcut"):
+        p = LatticePlanner(bounds, COARSE, heuristic=h, time_limit=60)
+        out = p.plan(
+            COARSE_STRAIGHT, world.clearance_at, world.version, (-0.45, -0.3, 0.0),
+            [LegGoal(0, -0.45, 0.3, 0.3)], True,
+        )
+        assert out.solved, (h, out.reason)
+
+
+def test_bad_search_or_heuristic_names_are_clear_errors() -> None:
+    with pytest.raises(ValueError, match="search"):
+        LatticePlanner(Bounds(), SETTINGS, search="dfs")
+    with pytest.raises(ValueError, match="heuristic"):
+        LatticePlanner(Bounds(), SETTINGS, heuristic="magic")
+
+
+def test_a_shape_without_lattice_primitives_has_no_table() -> None:
+    assert motion_table(LIB, "periodic", (0.0, 0.0, 0.0), SETTINGS) is None
+
+
+def test_plans_do_not_depend_on_the_hash_seed() -> None:
+    code = (
+        "from tests.domain.test_lattice import plan; from sim.obstacles import Circle;"
+        "from sim.world import Bounds;"
+        "print(plan(Bounds(-3, 3, -3, 3), [Circle(0, 0, 0.5)], (2.0, 0.2, 0.0),"
+        " [(-2.0, -0.3), (0.0, 2.0)], ordered=False)[2].pddl_plan)"
+    )
+    outs = set()
+    for seed in ("1", "2"):
+        env = {**os.environ, "PYTHONHASHSEED": seed}
+        run = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True)
+        assert run.returncode == 0, run.stderr
+        outs.add(run.stdout)
+    assert len(outs) == 1
