@@ -98,9 +98,7 @@ def mission(
         raise fail(str(exc)) from exc
     result = runner.run()
     print_summary(result)
-    path = plot_mission(
-        spec, result, out or Path("out") / f"{spec.name}.png", sensed_cells(runner)
-    )
+    path = plot_mission(spec, result, out or Path("out") / f"{spec.name}.png", sensed_cells(runner))
     console.print(f"plot: {path}")
     if result.status != "succeeded":
         raise typer.Exit(code=1)

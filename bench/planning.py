@@ -75,8 +75,12 @@ def run(side: float, library: object, seed: int = 0) -> dict[str, float]:
 
 def main() -> None:
     library = load_bundled()
-    print("lattice: 0.05 m cells, 64 orientations, 22 learned primitives per shape (gbf, lattice h)")
-    print(f"{'arena':>8}{'first [ms]':>12}{'replan p50':>12}{'replan p95':>12}{'replans':>9}{'steps':>7}")
+    print(
+        "lattice: 0.05 m cells, 64 orientations, 22 learned primitives per shape (gbf, lattice h)"
+    )
+    print(
+        f"{'arena':>8}{'first [ms]':>12}{'replan p50':>12}{'replan p95':>12}{'replans':>9}{'steps':>7}"
+    )
     for side in SIZES:
         r = run(side, library)
         print(

@@ -142,7 +142,9 @@ class MotionTable:
             p0, n0 = _capsule_samples(fp0.starts, fp0.ends, fp0.radii)
             self.body_points.append(p0)
             self.body_needs.append(n0)
-            pts_k, need_k, seg = [], [], []
+            pts_k: list[Array] = []
+            need_k: list[Array] = []
+            seg: list[int] = []
             for m, motion in enumerate(self.motions):
                 end = compose(start, motion.end)
                 c = self.centroid(end)
@@ -162,7 +164,8 @@ class MotionTable:
         # Clearance at the centroid beyond which every motion is free (clearance is
         # 1-Lipschitz: no point lies further than `reach` from the centroid).
         self.open_clearance = max(
-            float(np.max(np.linalg.norm(p, axis=-1) + n)) for p, n in zip(self.points, self.needs, strict=True)
+            float(np.max(np.linalg.norm(p, axis=-1) + n))
+            for p, n in zip(self.points, self.needs, strict=True)
         )
 
     # -- poses --------------------------------------------------------------------------------
@@ -248,7 +251,9 @@ def motion_table(
         return cached[1]
     entries = library.lattice(shape)
     table = (
-        MotionTable(shape, np.asarray(joints, float), [Motion.of(e) for e in entries], settings, geometry)
+        MotionTable(
+            shape, np.asarray(joints, float), [Motion.of(e) for e in entries], settings, geometry
+        )
         if entries
         else None
     )

@@ -72,6 +72,4 @@ def lattice_problem(task: LatticeTask, shape: str) -> Problem:
         "primitive": sorted(primitives) or ["none"],
         "goalpoint": [goal],
     }
-    return Problem(
-        "lattice", "screwsnake-lattice", objects, init, [f"(visited {goal})"], comment
-    )
+    return Problem("lattice", "screwsnake-lattice", objects, init, [f"(visited {goal})"], comment)

@@ -77,7 +77,9 @@ class LatticePlan:
         return [a.pddl for a in self.actions]
 
     def result(self) -> PlanResult:
-        status = "solved" if self.solved else ("timeout" if self.status == "timeout" else "unsolvable")
+        status = (
+            "solved" if self.solved else ("timeout" if self.status == "timeout" else "unsolvable")
+        )
         if self.status == "cancelled":
             status = "cancelled"
         return PlanResult(status, self.pddl_plan, self.search_ms, self.expansions, self.reason)  # type: ignore[arg-type]
@@ -140,7 +142,7 @@ class LatticePlanner:
     def __init__(
         self,
         bounds: Bounds,
-        settings: LatticeSettings = LatticeSettings(),
+        settings: LatticeSettings = LatticeSettings(),  # noqa: B008 (frozen, shared safely)
         search: str = "gbf",
         heuristic: str = "lattice",
         time_limit: float = 5.0,
@@ -227,9 +229,15 @@ class LatticePlanner:
             if result.status == "timeout" and time.monotonic() < deadline:
                 # Nothing closer to go to yet: search again with all the time left.
                 task = LatticeTask(
-                    self.grid, table, clearance, here, (goal.x, goal.y),
-                    max(0.03, 0.6 * goal.tolerance), self.settings.margin,
-                    self.settings.start_margin if leg == 0 else self.settings.margin, goal.index,
+                    self.grid,
+                    table,
+                    clearance,
+                    here,
+                    (goal.x, goal.y),
+                    max(0.03, 0.6 * goal.tolerance),
+                    self.settings.margin,
+                    self.settings.start_margin if leg == 0 else self.settings.margin,
+                    goal.index,
                 )
                 task.deadline, task.cancel = deadline, cancel
                 if leg == 0:
@@ -273,7 +281,9 @@ class LatticePlanner:
             if stop.status == "timeout" and best is not None and best[0] < start_h - 1.0:
                 names = [op.name for op in best[1].extract_solution()]
                 return PlanResult("solved", names, ms, task.expansions, "partial")
-            return PlanResult(stop.status, [], ms, task.expansions, f"search {stop.status} after {ms:.0f} ms")
+            return PlanResult(
+                stop.status, [], ms, task.expansions, f"search {stop.status} after {ms:.0f} ms"
+            )
         ms = (time.monotonic() - t0) * 1e3
         if plan is None:
             return PlanResult("unsolvable", [], ms, task.expansions, "no plan")
@@ -322,7 +332,7 @@ class LatticePlanner:
             return total
 
         if len(goals) <= MAX_GOALS_EXACT:
-            return list(min(itertools.permutations(goals), key=tour_length))
+            return list(min(itertools.permutations(goals), key=lambda t: tour_length(list(t))))
         tour, here, todo = [], start, list(goals)
         while todo:  # nearest neighbour, then 2-opt
             g = min(todo, key=lambda x: d(here, x))

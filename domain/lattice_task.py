@@ -72,12 +72,18 @@ class LatticeTask(Task):  # type: ignore[misc]
         self.deadline = math.inf
         self.cancel: threading.Event | None = None
         self.expansions = 0
-        self.edges: dict[int, list[tuple[int, str]]] = {}  # state -> [(next, primitive's PDDL name)]
+        self.edges: dict[
+            int, list[tuple[int, str]]
+        ] = {}  # state -> [(next, primitive's PDDL name)]
         self.near: set[int] = set()
         self._facts: dict[int, Fact] = {}
         start_fact = self.fact(self.start_number)
         super().__init__(
-            "lattice", {start_fact, self.goal_fact}, frozenset([start_fact]), frozenset([self.goal_fact]), []
+            "lattice",
+            {start_fact, self.goal_fact},
+            frozenset([start_fact]),
+            frozenset([self.goal_fact]),
+            [],
         )
 
     def fact(self, number: int) -> Fact:
@@ -120,7 +126,9 @@ class LatticeTask(Task):  # type: ignore[misc]
         return [((int(ni[m]), int(nj[m]), int(nk[m])), int(m)) for m in np.flatnonzero(ok)]
 
     # -- pyperplan's Task interface -----------------------------------------------------------
-    def get_successor_states(self, state: frozenset[Fact]) -> list[tuple[Operator, frozenset[Fact]]]:
+    def get_successor_states(
+        self, state: frozenset[Fact]
+    ) -> list[tuple[Operator, frozenset[Fact]]]:
         self.expansions += 1
         if self.cancel is not None and self.cancel.is_set():
             raise SearchStopped("cancelled")

@@ -18,19 +18,22 @@ from typing import Any
 
 import numpy as np
 
-from domain.lattice import LatticeSettings, MotionTable, motion_table
+from domain.lattice import LatticeSettings, MotionTable, compose, motion_table
 from domain.lattice_pddl import lattice_domain, lattice_problem
 from domain.lattice_planner import LatticeAction, LatticePlan, LatticePlanner
 from domain.strategy import Command, Replanned, Situation
-from domain.triggers import NoProgress, PathBlocked, ReplanRecord, Trigger
+from domain.triggers import Contact, NoProgress, PathBlocked, ReplanRecord, Trigger
 from primitives.grounding import TICK, Grounded, correction_basis, ground
-from primitives.library import Library
+from primitives.library import Library, Primitive
 from sim.controls import FixedShape
 from sim.robot import rotate
 
 OFF_PLAN = (0.3, math.radians(35))  # further than this from a planned state: replan
 ARRIVE_TRIES = 4  # final approaches to one goal before giving up on the plan
 LOOKAHEAD = 16  # plan steps re-checked against the world model when it changes
+SENSED_INFLATION = 0.1  # metres plans keep beyond what the head saw of a hidden obstacle
+BACK_OFF = {"front": 0, "rear": 180, "left": 90, "right": 270}  # body angle away from a side
+BACK_OFF_STEPS = 2  # short library translations away from a contact before replanning
 
 
 @dataclass
@@ -62,6 +65,8 @@ class NavigationStrategy:
         self.running: Running | None = None
         self.arrive_tries = 0
         self._checked: tuple[int, int] = (-1, -1)  # (world version, plan index) last checked
+        self.clearance: Any = None  # what plans are checked against (sensed cells inflated)
+        self.backoff: list[Primitive] = []
 
     # -- the lattice of the current body --------------------------------------------------------
     def table_for(self, shape: str, joints: tuple[float, float, float]) -> MotionTable | None:
@@ -87,11 +92,16 @@ class NavigationStrategy:
             )
         else:
             world = s.world
+            self.clearance = lambda pts: world.inflated_clearance_at(pts, SENSED_INFLATION)
+            self.backoff = self._back_off(trigger, table) if isinstance(trigger, Contact) else []
+            pose = np.asarray(s.pose, dtype=float)
+            for entry in self.backoff:  # plan from where backing off will leave the robot
+                pose = compose(pose, np.asarray(entry.end_pose))
             self.plan = self.planner.plan(
                 table,
-                world.clearance_at,
+                self.clearance,
                 world.version,
-                s.pose,
+                tuple(float(v) for v in pose),
                 s.goals,
                 s.ordered,
                 cancel,
@@ -103,7 +113,7 @@ class NavigationStrategy:
         record = ReplanRecord(
             trigger.kind, trigger.detail(), round(s.t, 3), latency, old, plan.pddl_plan, plan.status
         )
-        problem = lattice_problem(plan.task, s.shape) if plan.task is not None else ""
+        problem = lattice_problem(plan.task, s.shape).text() if plan.task is not None else ""
         self._checked = (s.world.version, 0)
         return Replanned(
             plan.solved, plan.reason, record, lattice_domain().text(), problem, plan.pddl_plan
@@ -119,19 +129,26 @@ class NavigationStrategy:
             return None
         self._checked = now
         first = self.index + (1 if self.running is not None else 0)
-        clearance = situation.world.clearance_at
-        for action in plan.actions[first : first + LOOKAHEAD]:
+        clearance = self.clearance
+        for n, action in enumerate(plan.actions[first : first + LOOKAHEAD], start=first):
             if action.name != "move" or action.source is None or action.motion is None:
                 continue
+            if n == 0:
+                continue  # out of the start: planned with the start's own (relaxed) margin
             i, j, k = action.source
             centre = self.planner.grid.centre(i, j)
             seg = table.segments[k]
             m = action.motion
             lo = int(seg[m])
             hi = int(seg[m + 1]) if m + 1 < len(seg) else len(table.points[k])
-            ok = clearance(centre + table.points[k][lo:hi]) >= table.needs[k][lo:hi] + self.settings.margin
+            ok = (
+                clearance(centre + table.points[k][lo:hi])
+                >= table.needs[k][lo:hi] + self.settings.margin
+            )
             if not bool(np.all(ok)):
-                return PathBlocked(action.pddl, (round(float(centre[0]), 3), round(float(centre[1]), 3)))
+                return PathBlocked(
+                    action.pddl, (round(float(centre[0]), 3), round(float(centre[1]), 3))
+                )
         return None
 
     def command(self, situation: Situation) -> Command | Trigger | None:
@@ -139,11 +156,29 @@ class NavigationStrategy:
         if plan is None or table is None or not plan.solved:
             return None
         while True:
+            if self.running is None and self.backoff:
+                entry = self.backoff.pop(0)
+                assert entry.end_pose is not None and entry.joints is not None
+                grounded = Grounded(
+                    np.asarray(entry.theta),
+                    np.asarray(entry.joints),
+                    entry.rollout.duration,
+                    "library",
+                    (entry.id,),
+                    np.asarray(entry.end_pose),
+                )
+                name = f"(back-off {entry.id})"
+                action = LatticeAction(
+                    "back-off", name, entry.id, situation.pose, grounded.duration
+                )
+                self.running = Running(action, grounded, grounded.duration)
             if self.running is not None:
                 if self.running.left > 1e-9:
                     self.running.left -= TICK
                     return self._command(self.running)
                 done, self.running = self.running.action, None
+                if done.name == "back-off":
+                    continue
                 if done.name == "move":
                     self.index += 1
                     off = self._offset(situation, done.target)
@@ -177,7 +212,10 @@ class NavigationStrategy:
         out = []
         for i, a in enumerate(self.plan.actions):
             verb, *args = a.pddl.strip("()").split()
-            grounding: dict[str, Any] = {"method": "library", "primitives": [a.primitive] if a.primitive else []}
+            grounding: dict[str, Any] = {
+                "method": "library",
+                "primitives": [a.primitive] if a.primitive else [],
+            }
             if self.running is not None and i == self.index:
                 grounding = self.running.grounded.to_dict()
             out.append(
@@ -215,6 +253,16 @@ class NavigationStrategy:
         basis = [e for e in correction_basis(self.library.lattice(table.shape)) if e.turn == 0.0]
         grounded = ground((float(d[0]), float(d[1]), 0.0), basis)
         return Running(action, grounded, grounded.duration)
+
+    def _back_off(self, trigger: Contact, table: MotionTable) -> list[Primitive]:
+        """Short library translations away from the touched side (a bumper's reflex)."""
+        angle = BACK_OFF.get(trigger.side, 0)
+        if trigger.part == 4 and trigger.side in ("front", "rear"):
+            angle = 180  # the tail's end touched: go head first
+        name = f"lat-{table.shape}-t005-a{angle:03d}"
+        if name not in self.library:
+            return []
+        return [self.library.get(name)] * BACK_OFF_STEPS
 
     @staticmethod
     def _command(running: Running) -> Command:

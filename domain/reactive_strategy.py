@@ -16,7 +16,13 @@ from typing import Any
 
 import numpy as np
 
-from domain.reactive import ReactiveState, ReactiveStep, plan_reactive, reactive_domain, reactive_problem
+from domain.reactive import (
+    ReactiveState,
+    ReactiveStep,
+    plan_reactive,
+    reactive_domain,
+    reactive_problem,
+)
 from domain.strategy import Command, Replanned, Situation
 from domain.triggers import PathBlocked, ReplanRecord, Trigger
 from primitives.shapes import SHAPES
@@ -39,7 +45,11 @@ class ReactiveStrategy:
     name = "reactive"
 
     def __init__(
-        self, steering: Steering, search: str = "gbf", heuristic: str = "hff", time_limit: float = 2.0
+        self,
+        steering: Steering,
+        search: str = "gbf",
+        heuristic: str = "hff",
+        time_limit: float = 2.0,
     ) -> None:
         self.steering = steering
         self.search, self.heuristic, self.time_limit = search, heuristic, time_limit
@@ -132,7 +142,7 @@ class ReactiveStrategy:
             return self._steer(s, to_goal, speed, action)
         side = to_goal + math.radians(step.relative_angle)
         if self.blocked(s, side):
-            d, where = self.range_towards(s, side)
+            _d, where = self.range_towards(s, side)
             at = where or (x, y)
             return PathBlocked(action, (round(at[0], 3), round(at[1], 3)))
         if self.blocked(s, to_goal):
@@ -156,7 +166,11 @@ class ReactiveStrategy:
                     "shape": st.shape,
                     "target": None if self.goal is None else {"x": self.goal[0], "y": self.goal[1]},
                     "duration": None,
-                    "grounding": {"method": "interpolated", "primitives": [], "relative_to": "goal direction"},
+                    "grounding": {
+                        "method": "interpolated",
+                        "primitives": [],
+                        "relative_to": "goal direction",
+                    },
                 }
             )
         return out

@@ -106,7 +106,14 @@ class Contact:
 
 
 Trigger = (
-    ObstacleSensed | ShapeChanged | NoProgress | GoalsChanged | Timeout | Initial | PathBlocked | Contact
+    ObstacleSensed
+    | ShapeChanged
+    | NoProgress
+    | GoalsChanged
+    | Timeout
+    | Initial
+    | PathBlocked
+    | Contact
 )
 
 

@@ -164,6 +164,19 @@ class WorldModel:
         out: Array = cached
         return out
 
+    def inflated_clearance_at(self, points: Array, inflation: float) -> Array:
+        """Clearance with sensed and contact cells grown by ``inflation`` metres (known
+        obstacles and walls exact): the head sees only part of a hidden obstacle, and the rest
+        of it lies beyond what it saw. Cached per inflation until ``version`` changes."""
+        key = f"inflated:{inflation:g}"
+        grid = self._cached(key)
+        if grid is None:
+            grown = np.maximum(self._dynamic() - inflation, 0.0)
+            grid = self._store(key, np.minimum(self._static, grown))
+        pts = np.asarray(points, dtype=float)
+        out: Array = np.minimum(self._interpolate(grid, pts), self.bounds.wall_clearance(pts))
+        return out
+
     def clearance_at(self, points: Array) -> Array:
         """Clearance at world points ``[..., 2]``: bilinear between cell centres, exact to the
         walls (negative outside the bounds). Between centres, near a convex obstacle, bilinear

@@ -27,7 +27,7 @@ MAX_SPEED = 0.95  # rad/s: a blend faster than this is stretched in time instead
 LIBRARY_MATCH = (0.004, math.radians(0.3))  # offsets within this run the primitive as it is
 
 
-def twist_of(end_pose: Sequence[float]) -> Array:
+def twist_of(end_pose: Sequence[float] | Array) -> Array:
     """The SE(2) logarithm of a start-frame end pose: (vx, vy, ω)·T of a constant twist."""
     dx, dy, w = (float(v) for v in end_pose)
     if abs(w) < 1e-9:
@@ -76,7 +76,7 @@ def correction_basis(entries: Sequence[Primitive]) -> list[Primitive]:
 
 
 def ground(
-    offset: Sequence[float], basis: Sequence[Primitive], planned: Primitive | None = None
+    offset: Sequence[float] | Array, basis: Sequence[Primitive], planned: Primitive | None = None
 ) -> Grounded:
     """Parameters that end at ``offset`` (start frame of the current pose).
 
@@ -128,15 +128,18 @@ def _weights(xis: Array, delta: Array, is_turn: NDArray[np.bool_]) -> Array:
     if len(trans) >= 2 and math.hypot(delta[0], delta[1]) > 1e-9:
         angle = math.atan2(delta[1], delta[0])
         gap = {
-            b: math.remainder(math.atan2(xis[b, 1], xis[b, 0]) - angle, 2 * math.pi)
-            for b in trans
+            b: math.remainder(math.atan2(xis[b, 1], xis[b, 0]) - angle, 2 * math.pi) for b in trans
         }
         right = [b for b in trans if gap[b] <= 0]
         left = [b for b in trans if gap[b] > 0]
         if right and left:
             pick += [max(right, key=gap.__getitem__), min(left, key=gap.__getitem__)]
     if turns and abs(delta[2]) > 1e-4:
-        pick.append(min(turns, key=lambda b: (bool(np.sign(xis[b, 2]) != np.sign(delta[2])), abs(xis[b, 2]))))
+        pick.append(
+            min(
+                turns, key=lambda b: (bool(np.sign(xis[b, 2]) != np.sign(delta[2])), abs(xis[b, 2]))
+            )
+        )
     chosen = pick if pick else list(range(len(xis)))
     w, *_ = np.linalg.lstsq(xis[chosen].T, delta, rcond=None)
     out[chosen] = w

@@ -22,6 +22,8 @@ def list_primitives(
             "label": e.label,
             "shape": e.shape,
             "space": e.space,
+            "family": e.family,
+            "duration": e.rollout.duration,
             "goal": list(e.goal),
             "direction": round(e.direction, 3),
             "cost": e.cost,

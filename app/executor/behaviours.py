@@ -19,6 +19,7 @@ from py_trees.common import Access, Status
 
 from app.executor.context import MissionContext
 from app.executor.robot import ContactReading
+from domain.strategy import Command
 from domain.triggers import Contact, Initial, NoProgress, ShapeChanged, Trigger
 from primitives.shapes import SHAPES, classify_shape
 from sim.robot import DEFAULT_GEOMETRY, joint_positions
@@ -54,7 +55,11 @@ def contact_point(ctx: MissionContext, contact: ContactReading) -> tuple[float, 
     pts = joint_positions(np.array([x, y, psi]), np.asarray(ctx.sensed_joints()))
     g = DEFAULT_GEOMETRY
     if contact.part == 0:
-        front, rear, radius = pts[0] + g.head_length * np.array([-math.cos(psi), -math.sin(psi)]), pts[0], g.head_radius
+        front, rear, radius = (
+            pts[0] + g.head_length * np.array([-math.cos(psi), -math.sin(psi)]),
+            pts[0],
+            g.head_radius,
+        )
     else:
         front, rear, radius = pts[contact.part - 1], pts[contact.part], g.unit_radius
     axis = front - rear
@@ -83,7 +88,7 @@ class Sense(MissionBehaviour):
         fresh = ctx.world.integrate(r for _, r in obs.ranges)
         if fresh:
             ctx.event("obstacle_sensed", cells=len(fresh))
-        if obs.contact is not None and not getattr(self, "_seen", None) == (obs.t, obs.contact):
+        if obs.contact is not None and getattr(self, "_seen", None) != (obs.t, obs.contact):
             self._seen = (obs.t, obs.contact)
             ctx.contacts += 1
             at = contact_point(ctx, obs.contact)
@@ -153,12 +158,11 @@ class Execute(MissionBehaviour):
                     "plan finished early",
                 )
             return Status.RUNNING
-        if not hasattr(outcome, "control"):
-            assert not isinstance(outcome, type(None))
-            return self.fail(outcome, f"execution stopped: {outcome.kind}")  # type: ignore[arg-type]
-        ctx.command = outcome.control  # type: ignore[union-attr]
-        ctx.current_action = outcome.action  # type: ignore[union-attr]
-        ctx.grounding = outcome.grounding  # type: ignore[union-attr]
+        if not isinstance(outcome, Command):
+            return self.fail(outcome, f"execution stopped: {outcome.kind}")
+        ctx.command = outcome.control
+        ctx.current_action = outcome.action
+        ctx.grounding = outcome.grounding
         self.feedback_message = ctx.current_action
         return Status.RUNNING
 

@@ -60,7 +60,10 @@ class ChainStepBehaviour(MissionBehaviour):
             )
             return Status.FAILURE
         x, y, _ = ctx.pose
-        if until.reach is not None and math.hypot(until.reach.x - x, until.reach.y - y) <= until.reach.tolerance:
+        if (
+            until.reach is not None
+            and math.hypot(until.reach.x - x, until.reach.y - y) <= until.reach.tolerance
+        ):
             return Status.SUCCESS
         if until.duration is not None and elapsed >= until.duration - 1e-9:
             return Status.SUCCESS
@@ -87,7 +90,9 @@ class ChainStepBehaviour(MissionBehaviour):
             if entry.periodic:
                 ctx.current_action = f"{entry.name} (chain step {self.index})"
                 ctx.grounding = {"method": "library", "primitives": [entry.id]}
-                ctx.command = PeriodicGait.of(entry.theta, entry.phases or (0, 0, 0), t0=ctx.chain_started)
+                ctx.command = PeriodicGait.of(
+                    entry.theta, entry.phases or (0, 0, 0), t0=ctx.chain_started
+                )
                 return
             theta, joints = np.array(entry.theta), np.array(entry.joints or (0, 0, 0))
             goal, sources, method = entry.goal, [entry.id], "library"

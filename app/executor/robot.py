@@ -194,5 +194,7 @@ def sim_robot(spec: MissionSpec, dt: float = 0.25) -> SimRobot:
     simulator = Simulator(
         world, sensors=SensorSuite(range_sensors=(ir, *ring)), events=tuple(events), dt=dt
     )
-    simulator.reset((spec.start.x, spec.start.y, spec.start.psi), spec.start_joints(), seed=spec.seed)
+    simulator.reset(
+        (spec.start.x, spec.start.y, spec.start.psi), spec.start_joints(), seed=spec.seed
+    )
     return SimRobot(simulator)

@@ -58,10 +58,11 @@ def make_strategy(
     if not spec.goals:
         return None
     p = spec.planner
+    own = p.heuristic in ("roadmap", "lattice")
     if p.domain == "reactive":
-        heuristic = "hff" if p.heuristic in ("roadmap", "lattice") else p.heuristic
+        heuristic: str = "hff" if own else p.heuristic
         return ReactiveStrategy(steering or Steering(library), p.search, heuristic, p.time_limit)
-    heuristic = "lattice" if p.heuristic in ("roadmap", "lattice") else p.heuristic
+    heuristic = "lattice" if own else p.heuristic
     settings = LatticeSettings(margin=p.margin)
     planner = LatticePlanner(spec.bounds.bounds(), settings, p.search, heuristic, p.time_limit)
     return NavigationStrategy(library, planner)
@@ -120,7 +121,9 @@ class MissionRunner:
             interval=TICK,
         )
         for entry in observation.log:
-            ctx.event(str(entry.get("kind")), **{k: v for k, v in entry.items() if k not in ("t", "kind")})
+            ctx.event(
+                str(entry.get("kind")), **{k: v for k, v in entry.items() if k not in ("t", "kind")}
+            )
         return ctx
 
     # -- running ------------------------------------------------------------------------------
@@ -149,7 +152,9 @@ class MissionRunner:
         command = ctx.command or FixedShape.of(np.zeros(4), ctx.joints)  # hold still
         ctx.observation = self.robot.act(command, TICK)
         for entry in ctx.observation.log:
-            ctx.event(str(entry.get("kind")), **{k: v for k, v in entry.items() if k not in ("t", "kind")})
+            ctx.event(
+                str(entry.get("kind")), **{k: v for k, v in entry.items() if k not in ("t", "kind")}
+            )
         if self.on_tick is not None:
             self.on_tick(ctx, self.snapshot())
         if ctx.t >= self.spec.time_limit - 1e-9:

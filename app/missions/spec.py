@@ -159,7 +159,15 @@ class ExpectSpec(Strict):
 class PlannerSpec(Strict):
     domain: Literal["navigation", "reactive"] = "navigation"
     search: Literal["gbf", "astar", "wastar", "ehs", "bfs"] = "gbf"
-    heuristic: Literal["roadmap", "hff", "hadd", "hmax", "lmcut", "landmark", "blind"] = "roadmap"
+    heuristic: Annotated[
+        Literal["lattice", "roadmap", "hff", "hadd", "hmax", "lmcut", "landmark", "blind"],
+        Field(
+            description=(
+                "lattice: footprint-aware 2-D distances (fast; 'roadmap' is an old name for it);"
+                " the others are pyperplan's, over the whole reachable lattice"
+            )
+        ),
+    ] = "lattice"
     time_limit: Annotated[float, Field(allow_inf_nan=False, gt=0, le=120)] = 5.0
     spacing: Annotated[float, Field(allow_inf_nan=False, ge=0.1, le=5)] = 0.5
     margin: Annotated[

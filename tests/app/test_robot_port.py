@@ -39,7 +39,11 @@ class ScriptedRobot:
         echo = self.echo_at is not None and abs(self.t - self.echo_at) < 0.2
         ir = RangeObservation(
             (x - 0.055 * math.cos(psi), y - 0.055 * math.sin(psi)),
-            psi + math.pi, math.radians(10), 0.8, 0.5 if echo else 0.8, echo,
+            psi + math.pi,
+            math.radians(10),
+            0.8,
+            0.5 if echo else 0.8,
+            echo,
         )
         return Observation(self.t, (x, y, psi), (0.0, 0.0, 0.0), (("ir", ir),), contact)
 

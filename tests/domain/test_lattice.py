@@ -36,9 +36,18 @@ def plan(bounds, obstacles, pose, goals, ordered=True, **kw):
     p = planner(bounds, **kw)
     assert STRAIGHT is not None
     legs = [LegGoal(i, x, y, 0.1) for i, (x, y) in enumerate(goals)]
-    return p, world, p.plan(
-        STRAIGHT, world.clearance_at, world.version, pose, legs, ordered,
-        static=(world.static_clearance_at, world.static_version),
+    return (
+        p,
+        world,
+        p.plan(
+            STRAIGHT,
+            world.clearance_at,
+            world.version,
+            pose,
+            legs,
+            ordered,
+            static=(world.static_clearance_at, world.static_version),
+        ),
     )
 
 
@@ -58,7 +67,9 @@ def test_direct_grounding_equals_pyperplans_grounding_of_the_export() -> None:
     grid = LatticePlanner(bounds, COARSE).grid
     assert COARSE_STRAIGHT is not None
     start = (5, 5, 0)  # centroid at the middle of the 2 m x 2 m arena, heading 0
-    task = LatticeTask(grid, COARSE_STRAIGHT, world.clearance_at, start, (0.3, 0.0), 0.15, 0.01, 0.0)
+    task = LatticeTask(
+        grid, COARSE_STRAIGHT, world.clearance_at, start, (0.3, 0.0), 0.15, 0.01, 0.0
+    )
     task.ground_all()  # the whole reachable lattice
     assert len(task.operators) > 100
     problem = lattice_problem(task, "straight").text()
@@ -72,7 +83,7 @@ def test_direct_grounding_equals_pyperplans_grounding_of_the_export() -> None:
 def test_plans_run_library_primitives_and_keep_their_swept_footprint_clear() -> None:
     bounds = Bounds(-4, 4, -4, 4)
     obstacles = [rectangle(0.0, 0.0, 0.4, 3.0), Circle(-2.0, 1.5, 0.4)]
-    p, world, result = plan(bounds, obstacles, (2.0, 0.3, 0.0), [(-2.5, -0.5)])
+    p, _world, result = plan(bounds, obstacles, (2.0, 0.3, 0.0), [(-2.5, -0.5)])
     assert result.solved, result.reason
     moves = [a for a in result.actions if a.name == "move"]
     assert moves and result.actions[-1].name == "visit" and result.actions[-1].goal == 0
@@ -91,7 +102,7 @@ def test_plans_run_library_primitives_and_keep_their_swept_footprint_clear() -> 
 
 def test_the_plan_is_valid_on_the_task_and_the_export_solves_with_pyperplan() -> None:
     bounds = Bounds(-2.0, 2.0, -2.0, 2.0)
-    p, world, result = plan(bounds, [Circle(0.0, 0.0, 0.3)], (0.4, 1.2, 0.0), [(-1.2, -1.0)])
+    _p, _world, result = plan(bounds, [Circle(0.0, 0.0, 0.3)], (0.4, 1.2, 0.0), [(-1.2, -1.0)])
     assert result.solved and result.task is not None
     result.task.operators = result.task.operators_seen()  # what the search generated
     assert validate_plan(result.task, result.pddl_plan) == (True, "valid")
@@ -160,8 +171,12 @@ def test_pyperplan_heuristics_stay_selectable_on_small_lattices() -> None:
     for h in ("hff", "lmcut"):
         p = LatticePlanner(bounds, COARSE, heuristic=h, time_limit=60)
         out = p.plan(
-            COARSE_STRAIGHT, world.clearance_at, world.version, (-0.45, -0.3, 0.0),
-            [LegGoal(0, -0.45, 0.3, 0.3)], True,
+            COARSE_STRAIGHT,
+            world.clearance_at,
+            world.version,
+            (-0.45, -0.3, 0.0),
+            [LegGoal(0, -0.45, 0.3, 0.3)],
+            True,
         )
         assert out.solved, (h, out.reason)
 

@@ -212,7 +212,10 @@ def test_unknown_ids_are_404_problems(client: TestClient) -> None:
 
 def test_primitives_and_simulate(client: TestClient) -> None:
     listing = client.get("/primitives").json()
-    assert listing["count"] == 49 and any(p["label"] == "P1s" for p in listing["items"])
+    # 49 paper primitives (Fig. 6 x 6 shapes + P5pe) and 110 lattice primitives (22 x 5 shapes)
+    assert listing["count"] == 159 and any(p["label"] == "P1s" for p in listing["items"])
+    lattice = client.get("/primitives/lat-straight-t025-a180").json()
+    assert lattice["family"] == "lattice" and lattice["rollout"]["duration"] <= 5
     p1s = client.get("/primitives/P1s").json()
     assert p1s["shape"] == "straight" and len(p1s["theta"]) == 4
     sim = client.post(
@@ -263,7 +266,7 @@ def test_learning_job_cancelled_halfway(client: TestClient) -> None:
 def test_health_and_metrics(client: TestClient) -> None:
     assert client.get("/livez").json() == {"status": "ok"}
     ready = client.get("/readyz").json()
-    assert ready["status"] == "ok" and ready["primitives"] == 49
+    assert ready["status"] == "ok" and ready["primitives"] == 159
     client.post("/missions", json=GOAL)
     text = client.get("/metrics").text
     assert "screwsnake_missions_created_total 1.0" in text and "screwsnake_ws_clients" in text
@@ -371,4 +374,5 @@ def test_goal_walled_in_by_hidden_obstacles_ends_failed_with_the_reason(client: 
         "start": {"x": 0, "y": 0, "psi": -2.356},
     }
     m = wait_end(client, client.post("/missions", json=body).json()["id"], timeout=120)
-    assert m["status"] == "failed" and m["reason"] and m["collisions"] == 0
+    assert m["status"] == "failed" and m["collisions"] == 0
+    assert m["reason"] == "unreachable: goal 0 at (3, 3) enclosed by sensed obstacles"
