@@ -91,6 +91,9 @@ class SimRobot:
     def __init__(self, simulator: Simulator) -> None:
         self.sim = simulator
         self._contact: ContactReading | None = None
+        # Simulator truth for tests and benchmarks (which obstacle each contact touched); the
+        # executor never reads it.
+        self.truth_contacts: list[tuple[float, int]] = []
         self._log: list[dict[str, Any]] = [
             {"t": e.t, "kind": e.kind, **e.detail} for e in simulator.initial_events
         ]
@@ -120,6 +123,7 @@ class SimRobot:
                     self._log.append({"t": event.t, "kind": "dropout", **event.detail})
             if result.contact is not None:
                 self._contact = ContactReading(result.contact.part, result.contact.side)
+                self.truth_contacts.append((result.t, result.contact.obstacle))
                 break  # a bumper stops the motion: the rest of the interval is not driven
         assert readings is not None
         self._last = self._observation(readings)

@@ -142,3 +142,33 @@ def test_expected_outcome_matches_the_free_space(path: Path) -> None:
             assert fits_straight(w, g.x, g.y), f"goal {i}: the straight body fits no heading"
     elif s.expect.reason == "unreachable":
         assert not all(reachable), "every goal is reachable after all"
+
+
+FAST = [p for p in HARD if (e := spec(p).expect) is not None and e.fast]
+
+
+@pytest.mark.parametrize("path", FAST, ids=lambda p: p.stem)
+def test_fast_hard_missions_end_as_they_expect(path: Path) -> None:
+    """The cheap ones end to end (all of them run in `python -m bench.missions`)."""
+    from app.executor.runner import MissionRunner
+    from primitives.library import load_bundled
+
+    s = spec(path)
+    assert s.expect is not None
+    runner = MissionRunner(s, load_bundled())
+    result = runner.run()
+    assert result.status == s.expect.status, result.reason
+    if s.expect.reason:
+        assert s.expect.reason in result.reason
+    if result.status == "succeeded":
+        assert all(
+            g.reached and g.error is not None and g.error <= g.tolerance for g in result.goals
+        )
+    # Simulator truth: never a known obstacle or a wall; a hidden one at most once (found by touch).
+    touched = [i for _, i in runner.robot.truth_contacts]  # type: ignore[attr-defined]
+    assert all(i >= 0 and not s.obstacles[i].known for i in touched), touched
+    assert len(touched) == len(set(touched)), touched
+
+
+def test_at_least_six_fast_missions() -> None:
+    assert len(FAST) >= 6
