@@ -21,6 +21,7 @@ import numpy as np
 from domain.lattice import LatticeSettings, MotionTable, compose, motion_table
 from domain.lattice_pddl import lattice_domain, lattice_problem
 from domain.lattice_planner import LatticeAction, LatticePlan, LatticePlanner
+from domain.lattice_task import LatticeTask
 from domain.strategy import Command, Replanned, Situation
 from domain.triggers import Contact, NoProgress, PathBlocked, ReplanRecord, Trigger
 from primitives.grounding import TICK, Grounded, correction_basis, ground
@@ -34,6 +35,8 @@ LOOKAHEAD = 16  # plan steps re-checked against the world model when it changes
 SENSED_INFLATION = 0.1  # metres plans keep beyond what the head saw of a hidden obstacle
 BACK_OFF = {"front": 0, "rear": 180, "left": 90, "right": 270}  # body angle away from a side
 BACK_OFF_STEPS = 2  # short library translations away from a contact before replanning
+MAX_RECOVERIES = 3  # recovery spins after a planning timeout before the mission fails
+SPIN_STEPS = 2  # turns of a recovery spin
 
 
 @dataclass
@@ -67,6 +70,7 @@ class NavigationStrategy:
         self._checked: tuple[int, int] = (-1, -1)  # (world version, plan index) last checked
         self.clearance: Any = None  # what plans are checked against (sensed cells inflated)
         self.backoff: list[Primitive] = []
+        self.recoveries = 0
 
     # -- the lattice of the current body --------------------------------------------------------
     def table_for(self, shape: str, joints: tuple[float, float, float]) -> MotionTable | None:
@@ -107,6 +111,15 @@ class NavigationStrategy:
                 cancel,
                 static=(world.static_clearance_at, world.static_version),
             )
+            if self.plan.solved and not self.plan.partial:
+                self.recoveries = 0
+            elif self.plan.status == "timeout" and self.recoveries < MAX_RECOVERIES:
+                # Nav2-style recovery: turn in place to sense around, then plan again.
+                spin = self._spin(table, s, world)
+                if spin:
+                    self.recoveries += 1
+                    self.backoff += spin
+                    self.plan = LatticePlan("solved", "recovery", partial=True)
         self.table = table
         latency = (time.perf_counter() - t0) * 1e3
         plan = self.plan
@@ -253,6 +266,19 @@ class NavigationStrategy:
         basis = [e for e in correction_basis(self.library.lattice(table.shape)) if e.turn == 0.0]
         grounded = ground((float(d[0]), float(d[1]), 0.0), basis)
         return Running(action, grounded, grounded.duration)
+
+    def _spin(self, table: MotionTable, s: Situation, world: Any) -> list[Primitive]:
+        """Two of the largest library turns that are free from the robot's state."""
+        key = self.planner.key_of(table, s.pose)
+        task = LatticeTask(
+            self.planner.grid, table, self.clearance, key, (0.0, 0.0), 0.0, 0.0, 0.0
+        )
+        free = {table.motions[m].primitive for _, m in task.valid_motions(key)}
+        turns = sorted(
+            (e for e in self.library.lattice(table.shape) if e.turn != 0.0 and e.id in free),
+            key=lambda e: -abs(e.turn),
+        )
+        return turns[:1] * SPIN_STEPS
 
     def _back_off(self, trigger: Contact, table: MotionTable) -> list[Primitive]:
         """Short library translations away from the touched side (a bumper's reflex)."""

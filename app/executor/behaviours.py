@@ -19,12 +19,12 @@ from py_trees.common import Access, Status
 
 from app.executor.context import MissionContext
 from app.executor.robot import ContactReading
+from app.missions.spec import ARRIVE_FRACTION
 from domain.strategy import Command
 from domain.triggers import Contact, Initial, NoProgress, ShapeChanged, Trigger
 from primitives.shapes import SHAPES, classify_shape
 from sim.robot import DEFAULT_GEOMETRY, joint_positions
 
-ARRIVE_FRACTION = 0.4  # a goal is marked reached within this fraction of its tolerance
 SHAPE_TOLERANCE = 0.1  # rad: sensed joints further than this from the commanded ones: deformed
 NO_PROGRESS_TIME = 150.0  # model seconds without 5 cm of progress towards the next goal
 CONTACT_STANDOFF = 0.02  # metres beyond the touching unit's surface where the contact is marked

@@ -24,7 +24,10 @@ from pydantic import (
 
 from primitives.shapes import SHAPES, shape_named
 from sim.obstacles import Obstacle, obstacle_from_dict
-from sim.world import Bounds
+from sim.robot import DEFAULT_GEOMETRY
+from sim.world import Bounds, World, footprint
+
+ARRIVE_FRACTION = 0.4  # a goal is marked reached within this fraction of its tolerance
 
 MAX_GOALS = 50
 MAX_OBSTACLES = 200
@@ -278,7 +281,37 @@ class MissionSpec(Strict):
         for j, ob in enumerate(obstacles):
             if ob.contains(_xy(self.start.x, self.start.y))[0]:
                 raise ValueError(f"start: inside obstacles.{j}")
+        self._body_fits(bounds, obstacles)
         return self
+
+    def _body_fits(self, bounds: Bounds, obstacles: list[Obstacle]) -> None:
+        """The whole start body clear, and every goal reachable by the tracked point."""
+        import numpy as np
+
+        pose = np.array([self.start.x, self.start.y, self.start.psi])
+        contact = World(bounds, tuple(obstacles)).contact(
+            footprint(pose, np.asarray(self.start_joints()))
+        )
+        if contact is not None:
+            what = "a wall" if contact.obstacle < 0 else f"obstacles.{contact.obstacle}"
+            raise ValueError(f"start: the robot's body (head and four units) overlaps {what}")
+        # The first unit's capsule (radius r) is centred on the tracked point's axis: the point
+        # can get no closer than r to anything, and a goal counts within 0.4 of its tolerance.
+        r = DEFAULT_GEOMETRY.unit_radius
+        for i, g in enumerate(self.goals):
+            need = r - ARRIVE_FRACTION * g.tolerance
+            p = _xy(g.x, g.y)
+            if float(bounds.wall_clearance(p)[0]) < need:
+                raise ValueError(
+                    f"goals.{i}: closer to a wall than the robot can reach ({r:g} m around "
+                    "the tracked point, less 0.4 of the tolerance)"
+                )
+            for j, ob in enumerate(obstacles):
+                if float(ob.segment_clearance(p, p)[0]) < need:
+                    raise ValueError(
+                        f"goals.{i}: closer to obstacles.{j} than the robot can reach "
+                        f"({r:g} m around the tracked point, less 0.4 of the tolerance)"
+                    )
 
     def world_obstacles(self) -> list[Obstacle]:
         return [obstacle_from_dict(o.model_dump()) for o in self.obstacles]

@@ -180,6 +180,17 @@ def test_cancel_reaches_a_running_mission(client: TestClient) -> None:
         ({"goals": [{"x": 1, "y": 1}], "obstacles": [{"type": "hexagon"}]}, "obstacles.0"),
         ({"chain": [{"primitive": "P99", "until": {"duration": 5}}]}, "chain.0"),
         ({"goals": [{"x": 1, "y": 1}], "speed": -1}, "speed"),
+        (  # the start's body, not its head, overlaps an obstacle
+            {
+                "goals": [{"x": -3, "y": 0}],
+                "obstacles": [{"type": "circle", "x": 0.5, "y": 0.15, "radius": 0.2}],
+            },
+            "start",
+        ),
+        (  # 3 cm from a wall: the robot's body keeps its tracked point 7.5 cm away
+            {"goals": [{"x": 9.97, "y": 0}]},
+            "goals.0",
+        ),
     ],
 )
 def test_bad_input_is_422_problem_json_naming_the_field(
@@ -194,6 +205,8 @@ def test_bad_input_is_422_problem_json_naming_the_field(
     assert r.headers["content-type"].startswith("application/problem+json")
     problem = r.json()
     assert problem["status"] == 422 and field in problem["detail"]
+    if field in ("start", "goals.0"):  # the body checks name the field, not just the detail
+        assert problem["field"] == field
 
 
 def test_unknown_ids_are_404_problems(client: TestClient) -> None:
