@@ -226,3 +226,16 @@ def test_corrupt_truncated_or_future_mission_files(tmp_path: Path, text: str, me
         load_mission(path)
     with pytest.raises(MissionFileError, match="cannot read"):
         load_mission(tmp_path / "missing.json")
+
+
+def test_a_manual_chain_stops_on_contact_with_the_part_and_side() -> None:
+    spec = MissionSpec.model_validate(
+        {
+            "chain": [{"primitive": "P4s", "until": {"duration": 300}}],  # head first, towards -x
+            "obstacles": [{"type": "rectangle", "x": -2, "y": 0, "width": 0.2, "height": 3}],
+        }
+    )
+    result = run(spec)
+    assert result.status == "failed" and result.collisions == 1
+    assert result.reason == "chain step 0 stopped: part 0 touched something on its front side"
+    assert result.model_time < 120  # stopped at the wall (~1.9 m at 2 cm/s), not after 300 s

@@ -119,6 +119,13 @@ def test_plan_trajectory_pddl_tree_endpoints(client: TestClient) -> None:
         move["grounding"]["method"] in ("library", "interpolated")
         and move["grounding"]["primitives"]
     )
+    # every move is a library primitive, named in the PDDL, with its duration
+    known = {p["id"] for p in client.get("/primitives").json()["items"]}
+    moves = [a for a in plan["actions"] if a["name"] == "move"]
+    assert moves and plan["actions"][-1]["name"] == "visit"
+    for a in moves:
+        assert a["args"][2].startswith("lat-") and a["duration"] > 0
+        assert set(a["grounding"]["primitives"]) <= known and a["grounding"]["primitives"]
     assert client.get(f"/plan?mission={mission['id']}").json() == plan
     assert client.get("/plan").json()["mission"] == mission["id"]
     points = client.get(f"/missions/{mission['id']}/trajectory").json()["points"]
