@@ -26,7 +26,6 @@ from typing import Any
 from app.executor.runner import MissionRunner
 from app.missions.spec import MissionSpec, load_mission
 from primitives.library import Library, load_bundled
-from primitives.steering import Steering
 
 ROOT = Path(__file__).resolve().parents[1]
 SETS = {"examples": ROOT / "examples", "hard": ROOT / "examples" / "hard"}
@@ -81,13 +80,13 @@ class Deadline:
         return self.fired
 
 
-_LIBRARY: list[tuple[Library, Steering]] = []  # one per worker process, built on first use
+_LIBRARY: list[Library] = []  # one per worker process, built on first use
 
 
-def _library() -> tuple[Library, Steering]:
+def _library() -> Library:
     if not _LIBRARY:
         library = load_bundled()
-        _LIBRARY.append((library, Steering(library)))
+        _LIBRARY.append(library)
     return _LIBRARY[0]
 
 
@@ -111,13 +110,13 @@ def run_job(job: Job) -> Row:
         status, reason = expected_of(spec)
         row.name = spec.name
         row.expected = status + (f":{reason}" if reason else "")
-        library, steering = _library()
+        library = _library()
         best = float("inf")
         result = None
         for _ in range(job.repeat):
             flag = Deadline(job.cap)
             t0 = time.perf_counter()
-            runner = MissionRunner(spec, library, steering, cancel=flag)
+            runner = MissionRunner(spec, library, cancel=flag)
             result = runner.run()
             best = min(best, time.perf_counter() - t0)
             if flag.fired:

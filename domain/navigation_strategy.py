@@ -270,9 +270,7 @@ class NavigationStrategy:
     def _spin(self, table: MotionTable, s: Situation, world: Any) -> list[Primitive]:
         """Two of the largest library turns that are free from the robot's state."""
         key = self.planner.key_of(table, s.pose)
-        task = LatticeTask(
-            self.planner.grid, table, self.clearance, key, (0.0, 0.0), 0.0, 0.0, 0.0
-        )
+        task = LatticeTask(self.planner.grid, table, self.clearance, key, (0.0, 0.0), 0.0, 0.0, 0.0)
         free = {table.motions[m].primitive for _, m in task.valid_motions(key)}
         turns = sorted(
             (e for e in self.library.lattice(table.shape) if e.turn != 0.0 and e.id in free),

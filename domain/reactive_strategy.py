@@ -24,10 +24,10 @@ from domain.reactive import (
     reactive_problem,
 )
 from domain.strategy import Command, Replanned, Situation
-from domain.triggers import PathBlocked, ReplanRecord, Trigger
-from primitives.shapes import SHAPES
-from primitives.steering import Steering
-from sim.controls import Control, FixedShape, PeriodicGait
+from domain.triggers import NoProgress, PathBlocked, ReplanRecord, Trigger
+from primitives.grounding import correction_basis, ground
+from primitives.library import Library
+from sim.controls import FixedShape
 from sim.world import footprint
 
 CRUISE_SPEED = 0.06  # m/s (screw speeds stay within ±0.8 rad/s)
@@ -46,12 +46,12 @@ class ReactiveStrategy:
 
     def __init__(
         self,
-        steering: Steering,
+        library: Library,
         search: str = "gbf",
         heuristic: str = "hff",
         time_limit: float = 2.0,
     ) -> None:
-        self.steering = steering
+        self.library = library
         self.search, self.heuristic, self.time_limit = search, heuristic, time_limit
         self.steps: list[ReactiveStep] = []
         self.cleared = 0.0
@@ -181,15 +181,17 @@ class ReactiveStrategy:
         goal = s.goals[0]
         return math.atan2(goal.y - s.pose[1], goal.x - s.pose[0])
 
-    def _steer(self, s: Situation, direction: float, speed: float, action: str) -> Command:
-        shape = SHAPES[s.shape]
-        joints = np.asarray(s.joints)
-        cmd = self.steering.command(
-            s.shape, direction - s.pose[2], speed, None if shape.periodic else joints
-        )
-        control: Control
-        if cmd.phases is not None:
-            control = PeriodicGait.of(cmd.theta, cmd.phases)
-        else:
-            control = FixedShape.of(cmd.theta, cmd.joints if cmd.joints is not None else joints)
-        return Command(control, action, cmd.grounding())
+    def _steer(
+        self, s: Situation, direction: float, speed: float, action: str
+    ) -> Command | Trigger:
+        """move(angle, shape) for one tick: the shape's short library translations blended
+        towards the world ``direction`` (their recorded motions, eqs. 16-18 style)."""
+        basis = [e for e in correction_basis(self.library.lattice(s.shape)) if e.turn == 0.0]
+        if not basis:
+            return NoProgress(action, f"body shape {s.shape} has no primitives in the library")
+        duration = max(e.rollout.duration for e in basis)
+        local = direction - s.pose[2]  # start frame of the current pose
+        offset = (speed * duration * math.cos(local), speed * duration * math.sin(local), 0.0)
+        grounded = ground(offset, basis)
+        control = FixedShape.of(grounded.theta, np.asarray(s.joints))
+        return Command(control, action, grounded.to_dict())

@@ -31,7 +31,6 @@ from domain.worldmodel import WorldModel
 from primitives.grounding import TICK
 from primitives.library import Library
 from primitives.shapes import classify_shape
-from primitives.steering import Steering
 from sim.controls import FixedShape
 
 MAX_RETICKS = 4  # ticks within one control tick while the tree only plans
@@ -51,9 +50,7 @@ class MissionError(ValueError):
     """A mission that cannot start (e.g. its start pose overlaps an obstacle)."""
 
 
-def make_strategy(
-    spec: MissionSpec, library: Library, steering: Steering | None
-) -> PlanningStrategy | None:
+def make_strategy(spec: MissionSpec, library: Library) -> PlanningStrategy | None:
     """The planning strategy the mission asks for (none for a manual chain)."""
     if not spec.goals:
         return None
@@ -61,7 +58,7 @@ def make_strategy(
     own = p.heuristic in ("roadmap", "lattice")
     if p.domain == "reactive":
         heuristic: str = "hff" if own else p.heuristic
-        return ReactiveStrategy(steering or Steering(library), p.search, heuristic, p.time_limit)
+        return ReactiveStrategy(library, p.search, heuristic, p.time_limit)
     heuristic = "lattice" if own else p.heuristic
     settings = LatticeSettings(margin=p.margin)
     planner = LatticePlanner(spec.bounds.bounds(), settings, p.search, heuristic, p.time_limit)
@@ -73,7 +70,6 @@ class MissionRunner:
         self,
         spec: MissionSpec,
         library: Library,
-        steering: Steering | None = None,
         mission_id: str | None = None,
         on_tick: TickHook | None = None,
         cancel: CancelFlag | None = None,
@@ -90,7 +86,7 @@ class MissionRunner:
             self.robot = robot or sim_robot(spec)
         except ValueError as exc:
             raise MissionError(str(exc)) from exc
-        self.ctx = self._context(spec, library, self.robot, steering)
+        self.ctx = self._context(spec, library, self.robot)
         self._writer = py_trees.blackboard.Client(name="runner", namespace=self.namespace)
         self._writer.register_key("context", access=Access.WRITE)
         self._writer.context = self.ctx
@@ -98,9 +94,7 @@ class MissionRunner:
         self.tree.setup_with_descendants()
 
     @staticmethod
-    def _context(
-        spec: MissionSpec, library: Library, robot: Robot, steering: Steering | None
-    ) -> MissionContext:
+    def _context(spec: MissionSpec, library: Library, robot: Robot) -> MissionContext:
         joints = spec.start_joints()
         shape = classify_shape(joints) if spec.shape_name() == "custom" else spec.shape_name()
         if shape is None:
@@ -113,7 +107,7 @@ class MissionRunner:
             library=library,
             robot=robot,
             world=world,
-            strategy=make_strategy(spec, library, steering),
+            strategy=make_strategy(spec, library),
             observation=observation,
             goals=[GoalState(g.x, g.y, g.tolerance) for g in spec.goals],
             shape=shape,
@@ -215,10 +209,8 @@ class MissionRunner:
         )
 
 
-def run_mission(
-    spec: MissionSpec, library: Library, steering: Steering | None = None
-) -> MissionResult:
-    return MissionRunner(spec, library, steering).run()
+def run_mission(spec: MissionSpec, library: Library) -> MissionResult:
+    return MissionRunner(spec, library).run()
 
 
 __all__ = ["MissionError", "MissionRunner", "run_mission"]

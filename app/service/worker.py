@@ -20,7 +20,6 @@ from typing import Any
 from app.executor.runner import MissionError, MissionRunner
 from app.missions.spec import MissionSpec
 from primitives.library import Library
-from primitives.steering import Steering
 
 WORKER_NICENESS = 10
 STATE_SAVE_SECONDS = 1.0  # wall seconds between state writes of a running mission
@@ -28,9 +27,8 @@ Message = tuple[Any, ...]
 
 
 @cache
-def library_and_steering(path: str) -> tuple[Library, Steering]:
-    library = Library.load(Path(path))
-    return library, Steering(library)
+def cached_library(path: str) -> Library:
+    return Library.load(Path(path))
 
 
 def mission_state(runner: MissionRunner) -> dict[str, Any]:
@@ -117,12 +115,10 @@ def _run(
     cancel: Event,
 ) -> None:
     spec = MissionSpec.model_validate(request)
-    library, steering = library_and_steering(library_path)
+    library = cached_library(library_path)
     queue.put(("transition", "planning", "", None))
     try:
-        runner = MissionRunner(
-            spec, library, steering, mission_id=mission_id.replace("-", ""), cancel=cancel
-        )
+        runner = MissionRunner(spec, library, mission_id=mission_id.replace("-", ""), cancel=cancel)
     except MissionError as exc:
         queue.put(("end", "failed", str(exc), None))
         return

@@ -9,18 +9,16 @@ import pytest
 from typer.testing import CliRunner
 
 from app.cli import cli
-from app.executor.runner import MissionError, MissionRunner, run_mission
+from app.executor.runner import MissionRunner, run_mission
 from app.missions.spec import MissionFileError, MissionSpec, load_mission, parse_mission
 from primitives.library import load_bundled
-from primitives.steering import Steering
 
 LIB = load_bundled()
-STEERING = Steering(LIB)
 EXAMPLES = sorted(Path(__file__).parents[2].joinpath("examples").glob("*.json"))
 
 
 def run(spec: MissionSpec):
-    return run_mission(spec, LIB, STEERING)
+    return run_mission(spec, LIB)
 
 
 @pytest.mark.parametrize("path", EXAMPLES, ids=lambda p: p.stem)
@@ -77,7 +75,6 @@ def test_deformation_switches_to_the_new_shapes_primitives() -> None:
     runner = MissionRunner(
         spec,
         LIB,
-        STEERING,
         on_tick=lambda ctx, snap: grounded.append((ctx.t, ctx.shape, snap["grounding"])),
     )
     result = runner.run()
@@ -94,7 +91,7 @@ def test_deformation_switches_to_the_new_shapes_primitives() -> None:
 def test_tree_snapshots_are_json_with_names_and_statuses() -> None:
     snaps = []
     spec = load_mission(Path("examples/fig9a-single-goal.json"))
-    MissionRunner(spec, LIB, STEERING, on_tick=lambda ctx, snap: snaps.append(snap)).run()
+    MissionRunner(spec, LIB, on_tick=lambda ctx, snap: snaps.append(snap)).run()
     first = snaps[0]
     json.dumps(first)
     tree = first["tree"]
