@@ -28,6 +28,7 @@ from sim.robot import DEFAULT_GEOMETRY, joint_positions
 SHAPE_TOLERANCE = 0.1  # rad: sensed joints further than this from the commanded ones: deformed
 NO_PROGRESS_TIME = 150.0  # model seconds without 5 cm of progress towards the next goal
 CONTACT_STANDOFF = 0.02  # metres beyond the touching unit's surface where the contact is marked
+CONTACT_EXTENT = 0.1  # metres a side contact is marked beyond each end of the touching unit
 
 
 class MissionBehaviour(py_trees.behaviour.Behaviour):
@@ -49,8 +50,10 @@ class MissionBehaviour(py_trees.behaviour.Behaviour):
         return Status.FAILURE
 
 
-def contact_point(ctx: MissionContext, contact: ContactReading) -> tuple[float, float]:
-    """Where the touched thing is: just outside the reported side of the reported part."""
+def contact_points(ctx: MissionContext, contact: ContactReading) -> list[tuple[float, float]]:
+    """Where the touched thing is: just outside the reported side of the reported part. A side
+    bumper spans its unit: the obstacle is marked along the whole side, and a little beyond
+    (what presses a side is mostly a wall or an edge, seldom a point)."""
     x, y, psi = ctx.pose
     pts = joint_positions(np.array([x, y, psi]), np.asarray(ctx.sensed_joints()))
     g = DEFAULT_GEOMETRY
@@ -67,13 +70,16 @@ def contact_point(ctx: MissionContext, contact: ContactReading) -> tuple[float, 
     left = np.array([-forward[1], forward[0]])
     middle = (front + rear) / 2
     reach = radius + CONTACT_STANDOFF
-    where = {
-        "front": front + reach * forward,
-        "rear": rear - reach * forward,
-        "left": middle + reach * left,
-        "right": middle - reach * left,
-    }[contact.side]
-    return float(where[0]), float(where[1])
+    if contact.side in ("front", "rear"):
+        end = front + reach * forward if contact.side == "front" else rear - reach * forward
+        across = np.linspace(-radius, radius, 3)[:, None] * left
+        pts_out = end + across
+    else:
+        normal = left if contact.side == "left" else -left
+        half = float(np.linalg.norm(axis)) / 2 + CONTACT_EXTENT
+        along = np.linspace(-half, half, max(2, math.ceil(2 * half / 0.05) + 1))[:, None] * forward
+        pts_out = middle + reach * normal + along
+    return [(float(p[0]), float(p[1])) for p in pts_out]
 
 
 class Sense(MissionBehaviour):
@@ -91,8 +97,10 @@ class Sense(MissionBehaviour):
         if obs.contact is not None and getattr(self, "_seen", None) != (obs.t, obs.contact):
             self._seen = (obs.t, obs.contact)
             ctx.contacts += 1
-            at = contact_point(ctx, obs.contact)
-            ctx.world.add_contact(at)
+            marks = contact_points(ctx, obs.contact)
+            for point in marks:
+                ctx.world.add_contact(point)
+            at = marks[len(marks) // 2]
             ctx.event("collision", part=obs.contact.part, side=obs.contact.side, at=list(at))
             return self.fail(
                 Contact(obs.contact.part, obs.contact.side, at),
