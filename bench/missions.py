@@ -1,5 +1,5 @@
-"""Every mission of examples/ and examples/hard/, as fast as possible, checked against what it
-expects (DESIGN §8: accuracy, contacts, model time / wall time).
+"""Every mission of examples/, examples/hard/ and examples/untuned/, as fast as possible, checked
+against what it expects (DESIGN §8: accuracy, contacts, model time / wall time).
 
     python -m bench.missions [--only PATTERN] [--noise SIGMA] [--repeat N] [--workers 2] [--cap 120]
 
@@ -28,7 +28,11 @@ from app.missions.spec import MissionSpec, load_mission
 from primitives.library import Library, load_bundled
 
 ROOT = Path(__file__).resolve().parents[1]
-SETS = {"examples": ROOT / "examples", "hard": ROOT / "examples" / "hard"}
+SETS = {
+    "examples": ROOT / "examples",
+    "hard": ROOT / "examples" / "hard",
+    "untuned": ROOT / "examples" / "untuned",
+}
 GRACE = 30.0  # wall seconds past the cap before the parent stops waiting for a stuck worker
 
 
