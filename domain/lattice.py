@@ -225,11 +225,6 @@ class LatticeGrid:
         return self.nx * self.ny * self.settings.orientations
 
 
-def lattice_shapes(library: Library) -> list[str]:
-    """Shapes for which the library has lattice primitives."""
-    return sorted({e.shape for e in library if e.family == "lattice"})
-
-
 _TABLES: dict[tuple[Any, ...], tuple[Library, MotionTable | None]] = {}
 TABLE_CACHE = 64  # motion tables kept per process (each ~0.3 s to build)
 

@@ -22,7 +22,7 @@ import numpy as np
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import dijkstra
 
-from domain.lattice import Key, LatticeGrid, LatticeSettings, MotionTable, relative
+from domain.lattice import Key, LatticeGrid, LatticeSettings, MotionTable
 from domain.lattice_task import Clearance, LatticeHeuristic, LatticeTask, primitive_name
 from domain.pyperplan_adapter import HEURISTICS, SEARCHES, PlanResult, SearchStopped
 from sim.robot import Array
@@ -30,6 +30,7 @@ from sim.world import Bounds, footprint
 
 NEIGHBOURS = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1))
 MAX_GOALS_EXACT = 7  # unordered goals up to this many are ordered by trying every permutation
+START_FREE = 0.15  # metres around the start centroid that the 2-D relaxation always lets through
 PARTIAL_AFTER = 1.5  # seconds of search after which a partial plan is taken, if it gets closer
 
 
@@ -96,7 +97,12 @@ def centroid_need(table: MotionTable) -> float:
 
 
 def distance_map(
-    grid: LatticeGrid, clearance: Clearance, goal: tuple[float, float], need: float, free: float
+    grid: LatticeGrid,
+    clearance: Clearance,
+    goal: tuple[float, float],
+    need: float,
+    free: float,
+    start: tuple[float, float] | None = None,
 ) -> Array:
     """Geodesic distance (m) from ``goal`` to every cell over cells whose centre keeps
     ``need`` clear (less the half-cell the centroid may sit off a centre); cells within ``free``
@@ -108,6 +114,8 @@ def distance_map(
     centres = np.stack([cx.ravel(), cy.ravel()], -1)
     ok = clearance(centres) >= need - r * math.sqrt(0.5)
     ok |= np.hypot(centres[:, 0] - goal[0], centres[:, 1] - goal[1]) <= free
+    if start is not None:  # the robot is there: it may be touching what it just bumped into
+        ok |= np.hypot(centres[:, 0] - start[0], centres[:, 1] - start[1]) <= START_FREE
     ok = ok.reshape(nx, ny)
     index = np.arange(nx * ny).reshape(nx, ny)
     rows, cols, weights = [], [], []
@@ -170,15 +178,20 @@ class LatticePlanner:
         return table.pose_of_centroid(self.grid.centre(i, j), k)
 
     def distances(
-        self, table: MotionTable, clearance: Clearance, version: Any, goal: LegGoal
+        self,
+        table: MotionTable,
+        clearance: Clearance,
+        version: Any,
+        goal: LegGoal,
+        start: tuple[float, float] | None = None,
     ) -> Array:
-        key = (version, table.shape, goal.x, goal.y)
+        key = (version, table.shape, goal.x, goal.y, start)
         if key not in self._maps:
             if len(self._maps) > 64:
                 self._maps.clear()
             free = float(np.linalg.norm(table.offset)) + goal.tolerance
             self._maps[key] = distance_map(
-                self.grid, clearance, (goal.x, goal.y), centroid_need(table), free
+                self.grid, clearance, (goal.x, goal.y), centroid_need(table), free, start
             )
         return self._maps[key]
 
@@ -203,7 +216,11 @@ class LatticePlanner:
         deadline = started + self.time_limit
         start = self.key_of(table, pose)
         si, sj, _ = start
-        maps = {g.index: self.distances(table, clearance, version, g) for g in goals}
+        here_xy = tuple(float(v) for v in self.grid.centre(si, sj))
+        maps = {
+            g.index: self.distances(table, clearance, version, g, (here_xy[0], here_xy[1]))
+            for g in goals
+        }
         for g in goals:
             if not math.isfinite(maps[g.index][si, sj]):
                 return LatticePlan("unreachable", self._enclosed(table, g, pose, static))
@@ -371,8 +388,3 @@ class LatticePlanner:
         if result.status == "timeout":
             return f"planning timeout: no plan to goal {goal.index} within {self.time_limit:g} s"
         return f"planning {result.status}"
-
-
-def offset_from(pose: Sequence[float], target: Sequence[float]) -> Array:
-    """Where ``target`` lies in the frame of ``pose`` (dx, dy, dψ)."""
-    return relative(np.asarray(pose, dtype=float), np.asarray(target, dtype=float))

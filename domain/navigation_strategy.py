@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from domain.lattice import LatticeSettings, MotionTable, compose, motion_table
+from domain.lattice import LatticeSettings, MotionTable, compose, motion_table, relative
 from domain.lattice_pddl import lattice_domain, lattice_problem
 from domain.lattice_planner import LatticeAction, LatticePlan, LatticePlanner
 from domain.lattice_task import LatticeTask
@@ -245,18 +245,10 @@ class NavigationStrategy:
             )
         return out
 
-    @property
-    def current_action(self) -> str:
-        if self.running is not None:
-            return self.running.action.pddl
-        return ""
-
     # -- helpers -------------------------------------------------------------------------------
     @staticmethod
     def _offset(situation: Situation, target: tuple[float, float, float]) -> np.ndarray:
-        x, y, psi = situation.pose
-        d = rotate(np.array([target[0] - x, target[1] - y]), np.array(-psi))
-        return np.array([d[0], d[1], math.remainder(target[2] - psi, 2 * math.pi)])
+        return relative(np.asarray(situation.pose, dtype=float), np.asarray(target, dtype=float))
 
     def _approach(self, situation: Situation, table: MotionTable, action: LatticeAction) -> Running:
         """A final approach that puts the tracked point on the goal, heading kept."""

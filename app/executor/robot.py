@@ -14,8 +14,6 @@ import math
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-import numpy as np
-
 from app.missions.spec import MissionSpec
 from domain.worldmodel import RangeObservation
 from sim.controls import Control
@@ -162,21 +160,12 @@ class SimRobot:
         )
 
 
-def held_joints(observation: Observation, fallback: Joints) -> Joints:
-    """The sensed joints, or ``fallback`` while the joint sensors drop out."""
-    j = np.asarray(observation.joints, dtype=float)
-    if not np.all(np.isfinite(j)):
-        return fallback
-    return (float(j[0]), float(j[1]), float(j[2]))
-
-
 __all__ = [
     "DEFAULT_GEOMETRY",
     "ContactReading",
     "Observation",
     "Robot",
     "SimRobot",
-    "held_joints",
     "sim_robot",
 ]
 
