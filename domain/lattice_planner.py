@@ -31,7 +31,8 @@ from sim.world import Bounds, footprint
 NEIGHBOURS = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1))
 MAX_GOALS_EXACT = 7  # unordered goals up to this many are ordered by trying every permutation
 START_FREE = 0.15  # metres around the start centroid that the 2-D relaxation always lets through
-PARTIAL_AFTER = 1.5  # seconds of search after which a partial plan is taken, if it gets closer
+PARTIAL_AFTER = 3000  # expansions after which a partial plan is taken, if it gets closer
+# (an expansion budget, not seconds: the same mission and seed plan the same on any machine)
 
 
 @dataclass(frozen=True)
@@ -239,7 +240,7 @@ class LatticePlanner:
                 self.settings.start_margin if leg == 0 else self.settings.margin,
                 goal.index,
             )
-            task.deadline, task.cancel = min(deadline, time.monotonic() + PARTIAL_AFTER), cancel
+            task.deadline, task.cancel, task.budget = deadline, cancel, PARTIAL_AFTER
             if leg == 0:
                 plan.task = task
             result = self._search(task, maps[goal.index])

@@ -70,6 +70,7 @@ class LatticeTask(Task):  # type: ignore[misc]
         self.goal_fact = Fact(f"(visited g{goal_index})", grid.size + goal_index)
         self.goal_index = goal_index
         self.deadline = math.inf
+        self.budget = math.inf  # expansions before the search stops (deterministic, unlike time)
         self.cancel: threading.Event | None = None
         self.expansions = 0
         self.edges: dict[
@@ -132,7 +133,7 @@ class LatticeTask(Task):  # type: ignore[misc]
         self.expansions += 1
         if self.cancel is not None and self.cancel.is_set():
             raise SearchStopped("cancelled")
-        if time.monotonic() > self.deadline:
+        if time.monotonic() > self.deadline or self.expansions > self.budget:
             raise SearchStopped("timeout")
         number = self.at(state)
         if number is None or self.goal_fact in state:
