@@ -32,11 +32,12 @@ from sim.robot import rotate
 OFF_PLAN = (0.3, math.radians(35))  # further than this from a planned state: replan
 ARRIVE_TRIES = 4  # final approaches to one goal before giving up on the plan
 LOOKAHEAD = 16  # plan steps re-checked against the world model when it changes
-SENSED_INFLATION = 0.1  # metres plans keep beyond what the head saw of a hidden obstacle
+SENSED_INFLATION = 0.05  # metres plans keep beyond what the head saw of a hidden obstacle
+CONTACT_INFLATION = 0.2  # ... and beyond where a bumper touched one (it felt a single point)
 BACK_OFF = {"front": 0, "rear": 180, "left": 90, "right": 270}  # body angle away from a side
 BACK_OFF_STEPS = 2  # short library translations away from a contact before replanning
 MAX_RECOVERIES = 3  # recovery spins after a planning timeout before the mission fails
-SPIN_STEPS = 2  # turns of a recovery spin
+SPIN_STEPS = 1  # turns of a recovery spin (each checked free before it runs)
 
 
 @dataclass
@@ -96,7 +97,9 @@ class NavigationStrategy:
             )
         else:
             world = s.world
-            self.clearance = lambda pts: world.inflated_clearance_at(pts, SENSED_INFLATION)
+            self.clearance = lambda pts: world.inflated_clearance_at(
+                pts, SENSED_INFLATION, CONTACT_INFLATION
+            )
             self.backoff = self._back_off(trigger, table) if isinstance(trigger, Contact) else []
             pose = np.asarray(s.pose, dtype=float)
             for entry in self.backoff:  # plan from where backing off will leave the robot
@@ -260,9 +263,13 @@ class NavigationStrategy:
         return Running(action, grounded, grounded.duration)
 
     def _spin(self, table: MotionTable, s: Situation, world: Any) -> list[Primitive]:
-        """Two of the largest library turns that are free from the robot's state."""
+        """The largest library turn whose swept footprint keeps the planning margin from the
+        robot's state (the state the real pose snaps to)."""
         key = self.planner.key_of(table, s.pose)
-        task = LatticeTask(self.planner.grid, table, self.clearance, key, (0.0, 0.0), 0.0, 0.0, 0.0)
+        margin = self.settings.margin
+        task = LatticeTask(
+            self.planner.grid, table, self.clearance, key, (0.0, 0.0), 0.0, margin, margin
+        )
         free = {table.motions[m].primitive for _, m in task.valid_motions(key)}
         turns = sorted(
             (e for e in self.library.lattice(table.shape) if e.turn != 0.0 and e.id in free),

@@ -164,14 +164,23 @@ class WorldModel:
         out: Array = cached
         return out
 
-    def inflated_clearance_at(self, points: Array, inflation: float) -> Array:
-        """Clearance with sensed and contact cells grown by ``inflation`` metres (known
-        obstacles and walls exact): the head sees only part of a hidden obstacle, and the rest
-        of it lies beyond what it saw. Cached per inflation until ``version`` changes."""
-        key = f"inflated:{inflation:g}"
+    def inflated_clearance_at(
+        self, points: Array, inflation: float, contact_inflation: float | None = None
+    ) -> Array:
+        """Clearance with sensed cells grown by ``inflation`` metres and contact cells by
+        ``contact_inflation`` (default: the same); known obstacles and walls exact. The head
+        sees only part of a hidden obstacle, and a bumper only the point it pressed: the rest
+        lies beyond. Cached per inflation until ``version`` changes."""
+        grow_contact = inflation if contact_inflation is None else contact_inflation
+        key = f"inflated:{inflation:g}:{grow_contact:g}"
         grid = self._cached(key)
         if grid is None:
-            grown = np.maximum(self._dynamic() - inflation, 0.0)
+            if grow_contact == inflation:
+                grown = np.maximum(self._dynamic() - inflation, 0.0)
+            else:
+                sensed = np.maximum(self._distance_to(self._sensed.occupied) - inflation, 0.0)
+                touched = np.maximum(self._distance_to(self._contact) - grow_contact, 0.0)
+                grown = np.minimum(sensed, touched)
             grid = self._store(key, np.minimum(self._static, grown))
         pts = np.asarray(points, dtype=float)
         out: Array = np.minimum(self._interpolate(grid, pts), self.bounds.wall_clearance(pts))
@@ -279,6 +288,16 @@ class WorldModel:
         walls = self.bounds.wall_clearance(np.stack([x, y], axis=-1))
         self._known_distance = np.full(self.grid.shape, cap)  # to known obstacles only
         self._static = np.clip(walls, 0.0, cap)  # walls and known obstacles
+
+    def _distance_to(self, occupied: NDArray[np.bool_]) -> Array:
+        """Clearance to the given cells (distance between centres minus half a cell)."""
+        cap = self.settings.max_clearance
+        if not np.any(occupied):
+            return np.full(self.grid.shape, cap)
+        res = self.grid.resolution
+        dist = ndimage.distance_transform_edt(~occupied) * res - 0.5 * res
+        out: Array = np.clip(dist, 0.0, cap)
+        return out
 
     def _has_dynamic(self) -> bool:
         return bool(np.any(self._sensed.occupied) or np.any(self._contact))

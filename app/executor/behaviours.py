@@ -88,9 +88,6 @@ class Sense(MissionBehaviour):
     def update(self) -> Status:
         ctx = self.ctx
         obs = ctx.observation
-        for entry in obs.log:
-            if entry.get("kind") == "dropout" and entry.get("t") == ctx.t:
-                ctx.event("dropout", sensors=entry.get("sensors"), duration=entry.get("duration"))
         fresh = ctx.world.integrate(r for _, r in obs.ranges)
         if fresh:
             ctx.event("obstacle_sensed", cells=len(fresh))
