@@ -174,15 +174,8 @@ class NavigationStrategy:
         while True:
             if self.running is None and self.backoff:
                 entry = self.backoff.pop(0)
-                assert entry.end_pose is not None and entry.joints is not None
-                grounded = Grounded(
-                    np.asarray(entry.theta),
-                    np.asarray(entry.joints),
-                    entry.rollout.duration,
-                    "library",
-                    (entry.id,),
-                    np.asarray(entry.end_pose),
-                )
+                assert entry.end_pose is not None
+                grounded = ground(entry.end_pose, [], entry)  # the primitive as it is
                 name = f"(back-off {entry.id})"
                 action = LatticeAction(
                     "back-off", name, entry.id, situation.pose, grounded.duration
