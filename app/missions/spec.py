@@ -172,7 +172,19 @@ class PlannerSpec(Strict):
         ),
     ] = "lattice"
     time_limit: Annotated[float, Field(allow_inf_nan=False, gt=0, le=120)] = 5.0
-    spacing: Annotated[float, Field(allow_inf_nan=False, ge=0.1, le=5)] = 0.5
+    spacing: Annotated[
+        float,
+        Field(
+            allow_inf_nan=False,
+            ge=0.1,
+            le=5,
+            deprecated=True,
+            description=(
+                "ignored: the old roadmap's waypoint spacing (m); the lattice's resolution is "
+                "0.05 m cells and 64 orientations. Accepted so older requests still validate."
+            ),
+        ),
+    ] = 0.5
     margin: Annotated[
         float,
         Field(
