@@ -46,7 +46,9 @@ def writer(
     key = svc.settings.api_key
     if key is None:
         return
-    if credentials is None or not secrets.compare_digest(credentials.credentials, key):
+    # Bytes, not str: compare_digest refuses non-ASCII strings (a 500 on a stray header byte).
+    given = credentials.credentials.encode("utf-8", "surrogateescape") if credentials else None
+    if given is None or not secrets.compare_digest(given, key.encode("utf-8")):
         raise HTTPException(
             401, "a valid API key is required for writes", headers={"WWW-Authenticate": "Bearer"}
         )

@@ -308,6 +308,13 @@ def test_api_key_guards_writes_when_set(tmp_path: Path) -> None:
             == 201
         )
         assert c.get("/missions").status_code == 200  # reads stay open
+        for token in ("Bearer s3crét".encode("latin-1"), b"Bearer \xff\xfe"):  # not ASCII: 401
+            r = c.post("/missions", json=GOAL, headers={"Authorization": token})
+            assert r.status_code == 401, r.text
+            r = c.post(
+                f"/missions/{r.json().get('id', 'x')}/cancel", headers={"Authorization": token}
+            )
+            assert r.status_code == 401, r.text
 
 
 def test_websocket_bad_input(client: TestClient) -> None:
