@@ -30,6 +30,7 @@ log = logging.getLogger("screwsnake.supervisor")
 CONTEXT = multiprocessing.get_context("forkserver")  # safe beside threads; preloads the code
 CONTEXT.set_forkserver_preload(["app.service.worker"])
 POLL_SECONDS = 0.5
+DRAIN_SECONDS = 0.5  # how long a dead worker's last messages may take to arrive
 
 
 class Supervisor:
@@ -174,6 +175,10 @@ class Supervisor:
                     message = messages.get(timeout=POLL_SECONDS)
                 except queue_module.Empty:
                     if not process.is_alive():
+                        # A worker that exited normally may have its last messages still in
+                        # the pipe: drain them before calling it dead.
+                        if self._drain(mission_id, messages):
+                            return
                         self._end(
                             mission_id,
                             "failed",
@@ -190,6 +195,16 @@ class Supervisor:
                 process.kill()
             messages.close()
             messages.join_thread()
+
+    def _drain(self, mission_id: str, messages: multiprocessing.Queue[Message]) -> bool:
+        """Handle what a finished worker left in the queue; True if that ended the mission."""
+        while True:
+            try:
+                message = messages.get(timeout=DRAIN_SECONDS)
+            except queue_module.Empty:
+                return False
+            if self._handle(mission_id, message):
+                return True
 
     def _handle(self, mission_id: str, message: Message) -> bool:
         """Store, then broadcast, one worker message; True at the end."""
