@@ -21,6 +21,7 @@ from pydantic import (
     field_validator,
     model_validator,
 )
+from pydantic import Strict as StrictNumber  # no bool or string coerced into a number
 
 from primitives.shapes import SHAPES, shape_named
 from sim.obstacles import Obstacle, obstacle_from_dict
@@ -34,10 +35,14 @@ MAX_OBSTACLES = 200
 MAX_EVENTS = 20
 MAX_CHAIN = 50
 ARENA_LIMIT = 500.0  # metres from the origin
-Coord = Annotated[float, Field(allow_inf_nan=False, ge=-ARENA_LIMIT, le=ARENA_LIMIT)]
-Angle = Annotated[float, Field(allow_inf_nan=False, ge=-100.0, le=100.0)]
-Joint = Annotated[float, Field(allow_inf_nan=False, ge=-math.pi / 2, le=math.pi / 2)]
-Positive = Annotated[float, Field(allow_inf_nan=False, gt=0)]
+Coord = Annotated[
+    float, StrictNumber(), Field(allow_inf_nan=False, ge=-ARENA_LIMIT, le=ARENA_LIMIT)
+]
+Angle = Annotated[float, StrictNumber(), Field(allow_inf_nan=False, ge=-100.0, le=100.0)]
+Joint = Annotated[
+    float, StrictNumber(), Field(allow_inf_nan=False, ge=-math.pi / 2, le=math.pi / 2)
+]
+Positive = Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0)]
 
 
 class Strict(BaseModel):
@@ -58,7 +63,7 @@ class Point(Strict):
 class GoalSpec(Strict):
     x: Coord
     y: Coord
-    tolerance: Annotated[float, Field(allow_inf_nan=False, gt=0, le=5.0)] = 0.1
+    tolerance: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=5.0)] = 0.1
 
 
 class JointsShape(Strict):
@@ -69,7 +74,7 @@ class CircleSpec(Strict):
     type: Literal["circle"]
     x: Coord
     y: Coord
-    radius: Annotated[float, Field(allow_inf_nan=False, gt=0, le=100)]
+    radius: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=100)]
     known: bool = True
 
 
@@ -77,8 +82,8 @@ class RectangleSpec(Strict):
     type: Literal["rectangle"]
     x: Coord
     y: Coord
-    width: Annotated[float, Field(allow_inf_nan=False, gt=0, le=1000)]
-    height: Annotated[float, Field(allow_inf_nan=False, gt=0, le=1000)]
+    width: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=1000)]
+    height: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=1000)]
     angle: Angle = 0.0
     known: bool = True
 
@@ -109,7 +114,7 @@ class BoundsSpec(Strict):
 
 
 class DeformEvent(Strict):
-    t: Annotated[float, Field(allow_inf_nan=False, ge=0, le=1e6)]
+    t: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, ge=0, le=1e6)]
     type: Literal["deform"]
     joints: tuple[Joint, Joint, Joint]
 
@@ -117,7 +122,11 @@ class DeformEvent(Strict):
 class DropoutEvent(Strict):
     """From ``t`` for ``duration`` model seconds the named sensors read nothing (data model only)."""
 
-    t: Annotated[float, Field(allow_inf_nan=False, ge=0, le=1e6, description="start, model s")]
+    t: Annotated[
+        float,
+        StrictNumber(),
+        Field(allow_inf_nan=False, ge=0, le=1e6, description="start, model s"),
+    ]
     type: Literal["dropout"]
     sensors: Annotated[
         list[str],
@@ -128,7 +137,9 @@ class DropoutEvent(Strict):
         ),
     ]
     duration: Annotated[
-        float, Field(allow_inf_nan=False, gt=0, le=1e6, description="how long, model s")
+        float,
+        StrictNumber(),
+        Field(allow_inf_nan=False, gt=0, le=1e6, description="how long, model s"),
     ]
 
     @field_validator("sensors")
@@ -171,9 +182,10 @@ class PlannerSpec(Strict):
             )
         ),
     ] = "lattice"
-    time_limit: Annotated[float, Field(allow_inf_nan=False, gt=0, le=120)] = 5.0
+    time_limit: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=120)] = 5.0
     spacing: Annotated[
         float,
+        StrictNumber(),
         Field(
             allow_inf_nan=False,
             ge=0.1,
@@ -187,6 +199,7 @@ class PlannerSpec(Strict):
     ] = 0.5
     margin: Annotated[
         float,
+        StrictNumber(),
         Field(
             allow_inf_nan=False,
             ge=0,
@@ -198,26 +211,30 @@ class PlannerSpec(Strict):
 
 class SensorSpec(Strict):
     ring: Annotated[int, Field(ge=0, le=32)] = 8
-    range: Annotated[float, Field(allow_inf_nan=False, gt=0, le=10)] = 1.0
-    ir_range: Annotated[float, Field(allow_inf_nan=False, gt=0, le=10)] = 0.8
-    noise: Annotated[float, Field(allow_inf_nan=False, ge=0, le=0.5)] = 0.0
+    range: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=10)] = 1.0
+    ir_range: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=10)] = 0.8
+    noise: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, ge=0, le=0.5)] = 0.0
 
 
 class Reach(Strict):
     x: Coord
     y: Coord
-    tolerance: Annotated[float, Field(allow_inf_nan=False, gt=0, le=5.0)] = 0.1
+    tolerance: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=5.0)] = 0.1
 
 
 class Until(Strict):
     """When a chain step ends: a point reached, a duration, or a sensor threshold."""
 
     reach: Reach | None = None
-    duration: Annotated[float, Field(allow_inf_nan=False, gt=0, le=1e5)] | None = None
+    duration: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=1e5)] | None = (
+        None
+    )
     sensor: str | None = None
-    below: Annotated[float, Field(allow_inf_nan=False)] | None = None
-    above: Annotated[float, Field(allow_inf_nan=False)] | None = None
-    timeout: Annotated[float, Field(allow_inf_nan=False, gt=0, le=1e5)] | None = None
+    below: Annotated[float, StrictNumber(), Field(allow_inf_nan=False)] | None = None
+    above: Annotated[float, StrictNumber(), Field(allow_inf_nan=False)] | None = None
+    timeout: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=1e5)] | None = (
+        None
+    )
 
     @model_validator(mode="after")
     def _one(self) -> Until:
@@ -259,9 +276,11 @@ class MissionSpec(Strict):
     planner: PlannerSpec = PlannerSpec()
     sensors: SensorSpec = SensorSpec()
     chain: Annotated[list[ChainStep], Field(max_length=MAX_CHAIN)] = []
-    speed: Annotated[float, Field(allow_inf_nan=False, ge=0, le=10_000)] = 0.0
+    speed: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, ge=0, le=10_000)] = 0.0
     seed: Annotated[int, Field(ge=0, le=2**32 - 1)] = 0
-    time_limit: Annotated[float, Field(allow_inf_nan=False, gt=0, le=36_000)] = 1800.0
+    time_limit: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=36_000)] = (
+        1800.0
+    )
     max_replans: Annotated[int, Field(ge=0, le=10_000)] = 500
     expect: Annotated[
         ExpectSpec | None, Field(description="the expected outcome (benchmarks); not used to run")

@@ -194,6 +194,9 @@ def test_cancel_reaches_a_running_mission(client: TestClient) -> None:
             },
             "start",
         ),
+        ({"goals": [{"x": True, "y": 0}]}, "goals.0.x"),  # numbers are not coerced
+        ({"goals": [{"x": "1", "y": 0}]}, "goals.0.x"),
+        ({"goals": [{"x": 1, "y": 1}], "planner": {"time_limit": "5"}}, "planner.time_limit"),
         (  # 3 cm from a wall: the robot's body keeps its tracked point 7.5 cm away
             {"goals": [{"x": 9.97, "y": 0}]},
             "goals.0",
