@@ -9,25 +9,16 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
 
 import numpy as np
 
+from bench.sim import best_of
 from domain.worldmodel import RangeObservation, WorldModel
 from sim.obstacles import Circle, rectangle, unit_vectors
 from sim.world import Bounds, World, footprint
 
 SIGMA = 0.02
 LAYOUT = [(0.0, math.radians(10), 0.8, 21)] + [(k * math.pi / 4, 0.0, 1.0, 1) for k in range(8)]
-
-
-def best_of(fn: Callable[[], object], repeat: int) -> float:
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - t0)
-    return min(times)
 
 
 def arena() -> World:

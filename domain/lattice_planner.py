@@ -229,35 +229,14 @@ class LatticePlanner:
         plan = LatticePlan("solved", order=[g.index for g in order])
         here = start
         for leg, goal in enumerate(order):
-            task = LatticeTask(
-                self.grid,
-                table,
-                clearance,
-                here,
-                (goal.x, goal.y),
-                max(0.03, 0.6 * goal.tolerance),
-                self.settings.margin,
-                self.settings.start_margin if leg == 0 else self.settings.margin,
-                goal.index,
-            )
-            task.deadline, task.cancel, task.budget = deadline, cancel, PARTIAL_AFTER
+            task = self._leg(table, clearance, here, goal, leg == 0, deadline, cancel)
+            task.budget = PARTIAL_AFTER
             if leg == 0:
                 plan.task = task
             result = self._search(task, maps[goal.index])
             if result.status == "timeout" and time.monotonic() < deadline:
                 # Nothing closer to go to yet: search again with all the time left.
-                task = LatticeTask(
-                    self.grid,
-                    table,
-                    clearance,
-                    here,
-                    (goal.x, goal.y),
-                    max(0.03, 0.6 * goal.tolerance),
-                    self.settings.margin,
-                    self.settings.start_margin if leg == 0 else self.settings.margin,
-                    goal.index,
-                )
-                task.deadline, task.cancel = deadline, cancel
+                task = self._leg(table, clearance, here, goal, leg == 0, deadline, cancel)
                 if leg == 0:
                     plan.task = task
                 result = self._search(task, maps[goal.index])
@@ -274,6 +253,31 @@ class LatticePlanner:
                 break
         plan.search_ms = (time.monotonic() - started) * 1e3
         return plan
+
+    def _leg(
+        self,
+        table: MotionTable,
+        clearance: Clearance,
+        start: Key,
+        goal: LegGoal,
+        first: bool,
+        deadline: float,
+        cancel: threading.Event | None,
+    ) -> LatticeTask:
+        """The task of one leg: from ``start`` to the tracked point on ``goal``."""
+        task = LatticeTask(
+            self.grid,
+            table,
+            clearance,
+            start,
+            (goal.x, goal.y),
+            max(0.03, 0.6 * goal.tolerance),
+            self.settings.margin,
+            self.settings.start_margin if first else self.settings.margin,
+            goal.index,
+        )
+        task.deadline, task.cancel = deadline, cancel
+        return task
 
     def _search(self, task: LatticeTask, distances: Array) -> PlanResult:
         """pyperplan's search on the leg. When time runs out, the path to the most promising

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import math
 import threading
-import time
 from collections.abc import Callable
 from typing import Any
 
@@ -25,7 +24,7 @@ from pyperplan.heuristics.heuristic_base import Heuristic
 from pyperplan.task import Operator, Task
 
 from domain.lattice import Key, LatticeGrid, MotionTable
-from domain.pyperplan_adapter import Fact, SearchStopped
+from domain.pyperplan_adapter import Fact, stop_if_due
 from sim.robot import Array
 
 Clearance = Callable[[Array], Array]  # clearance (m) at world points [N, 2]
@@ -131,10 +130,7 @@ class LatticeTask(Task):  # type: ignore[misc]
         self, state: frozenset[Fact]
     ) -> list[tuple[Operator, frozenset[Fact]]]:
         self.expansions += 1
-        if self.cancel is not None and self.cancel.is_set():
-            raise SearchStopped("cancelled")
-        if time.monotonic() > self.deadline or self.expansions > self.budget:
-            raise SearchStopped("timeout")
+        stop_if_due(self.cancel, self.deadline, self.expansions > self.budget)
         number = self.at(state)
         if number is None or self.goal_fact in state:
             return []

@@ -92,6 +92,14 @@ def make_facts(names: Sequence[str]) -> list[Fact]:
     return [Fact(n, i) for i, n in enumerate(names)]
 
 
+def stop_if_due(cancel: threading.Event | None, deadline: float, over_budget: bool = False) -> None:
+    """Raise ``SearchStopped`` when the search is cancelled, past its deadline or its budget."""
+    if cancel is not None and cancel.is_set():
+        raise SearchStopped("cancelled")
+    if over_budget or time.monotonic() > deadline:
+        raise SearchStopped("timeout")
+
+
 class IndexedTask(Task):  # type: ignore[misc]
     """A STRIPS task over ``Fact``s with operators indexed by a precondition fact.
 
@@ -132,10 +140,7 @@ class IndexedTask(Task):  # type: ignore[misc]
     ) -> list[tuple[Operator, frozenset[Fact]]]:
         self.expansions += 1
         # Checked on every expansion: one expansion under hFF can cost tens of milliseconds.
-        if self.cancel is not None and self.cancel.is_set():
-            raise SearchStopped("cancelled")
-        if time.monotonic() > self.deadline:
-            raise SearchStopped("timeout")
+        stop_if_due(self.cancel, self.deadline)
         candidates = [c for fact in state for c in self._index.get(fact, ())]
         candidates.sort(key=lambda c: c[0])
         return [(op, op.apply(state)) for _, op in candidates if op.preconditions <= state]
