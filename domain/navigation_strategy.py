@@ -97,23 +97,11 @@ class NavigationStrategy:
             )
         else:
             world = s.world
-            self.clearance = lambda pts: world.inflated_clearance_at(
-                pts, SENSED_INFLATION, CONTACT_INFLATION
-            )
             self.backoff = self._back_off(trigger, table) if isinstance(trigger, Contact) else []
             pose = np.asarray(s.pose, dtype=float)
             for entry in self.backoff:  # plan from where backing off will leave the robot
                 pose = compose(pose, np.asarray(entry.end_pose))
-            self.plan = self.planner.plan(
-                table,
-                self.clearance,
-                world.version,
-                tuple(float(v) for v in pose),
-                s.goals,
-                s.ordered,
-                cancel,
-                static=(world.static_clearance_at, world.static_version),
-            )
+            self.plan = self._plan(table, s, pose, cancel)
             if self.plan.solved and not self.plan.partial:
                 self.recoveries = 0
             elif self.plan.status == "timeout" and self.recoveries < MAX_RECOVERIES:
@@ -134,6 +122,46 @@ class NavigationStrategy:
         return Replanned(
             plan.solved, plan.reason, record, lattice_domain().text(), problem, plan.pddl_plan
         )
+
+    def _plan(
+        self,
+        table: MotionTable,
+        s: Situation,
+        pose: Any,
+        cancel: threading.Event | None,
+    ) -> LatticePlan:
+        """A lattice plan from ``pose``. Suspected surfaces (where a touched one probably goes
+        on) are kept clear of while a way round them exists; only if none does are they
+        planned through."""
+        world = s.world
+        plan = LatticePlan("unsolvable")
+        for suspected in (True, False) if np.any(world.suspected()) else (False,):
+            self.clearance = self._clearance(world, suspected)
+            plan = self.planner.plan(
+                table,
+                self.clearance,
+                (world.version, suspected),
+                tuple(float(v) for v in pose),
+                s.goals,
+                s.ordered,
+                cancel,
+                static=(world.static_clearance_at, world.static_version),
+            )
+            if plan.status not in ("unreachable", "unsolvable"):
+                break
+        return plan
+
+    @staticmethod
+    def _clearance(world: Any, suspected: bool) -> Any:
+        """What plans keep clear of: sensed cells and contacts inflated, suspected surfaces
+        too when ``suspected``."""
+
+        def clearance(pts: Any) -> Any:
+            return world.inflated_clearance_at(
+                pts, SENSED_INFLATION, CONTACT_INFLATION, suspected=suspected
+            )
+
+        return clearance
 
     def broken(self, situation: Situation) -> Trigger | None:
         """Re-check the next moves' swept footprints whenever the world model changed."""
