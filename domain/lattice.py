@@ -84,7 +84,7 @@ def relative(pose: Array, target: Array) -> Array:
     return np.array([xy[0], xy[1], turn])
 
 
-def _capsule_samples(starts: Array, ends: Array, radii: Array) -> tuple[Array, Array]:
+def capsule_samples(starts: Array, ends: Array, radii: Array) -> tuple[Array, Array]:
     """Points along capsule axes ``[..., C, 2]`` no further apart than SAMPLE_SPACING, and
     the clearance each needs (its capsule's radius); flattened to ``[N, 2]`` and ``[N]``."""
     length = float(np.max(np.linalg.norm(ends - starts, axis=-1)))
@@ -139,7 +139,7 @@ class MotionTable:
         for k in range(K):
             start = self.pose_of_centroid(np.zeros(2), k)
             fp0 = footprint(start, self.joints, self.geometry)
-            p0, n0 = _capsule_samples(fp0.starts, fp0.ends, fp0.radii)
+            p0, n0 = capsule_samples(fp0.starts, fp0.ends, fp0.radii)
             self.body_points.append(p0)
             self.body_needs.append(n0)
             pts_k: list[Array] = []
@@ -154,7 +154,7 @@ class MotionTable:
                 # landed, snapped to the lattice, so it was not checked by that move.
                 swept = compose(start, _thin(motion.swept, reach))
                 fp = footprint(swept, self.joints, self.geometry)
-                pts, need = _capsule_samples(fp.starts, fp.ends, fp.radii)
+                pts, need = capsule_samples(fp.starts, fp.ends, fp.radii)
                 seg.append(sum(len(p) for p in pts_k))
                 pts_k.append(pts)
                 need_k.append(need)

@@ -23,6 +23,7 @@ from app.missions.spec import ARRIVE_FRACTION
 from domain.strategy import Command
 from domain.triggers import Contact, Initial, NoProgress, ShapeChanged, Trigger
 from primitives.shapes import SHAPES, classify_shape
+from sim.controls import FixedShape
 from sim.obstacles import point_segment_distance
 from sim.robot import DEFAULT_GEOMETRY, Array, joint_positions, rotate
 from sim.world import footprint
@@ -201,6 +202,10 @@ class Execute(MissionBehaviour):
         if not isinstance(outcome, Command):
             return self.fail(outcome, f"execution stopped: {outcome.kind}")
         ctx.command = outcome.control
+        if outcome.shape is not None and isinstance(outcome.control, FixedShape):
+            # A commanded shape change: the joint sensors are held to the new shape from now.
+            j = outcome.control.joints[0]
+            ctx.shape, ctx.joints = outcome.shape, (float(j[0]), float(j[1]), float(j[2]))
         ctx.current_action = outcome.action
         ctx.grounding = outcome.grounding
         self.feedback_message = ctx.current_action
