@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -190,11 +191,12 @@ class LatticeGrid:
     bounds: Bounds
     settings: LatticeSettings
 
-    @property
+    # Cached: searches ask for these on every state they touch.
+    @cached_property
     def nx(self) -> int:
         return max(1, math.ceil((self.bounds.xmax - self.bounds.xmin) / self.settings.resolution))
 
-    @property
+    @cached_property
     def ny(self) -> int:
         return max(1, math.ceil((self.bounds.ymax - self.bounds.ymin) / self.settings.resolution))
 
@@ -220,7 +222,7 @@ class LatticeGrid:
         k, i = divmod(rest, self.nx)
         return i, j, k
 
-    @property
+    @cached_property
     def size(self) -> int:
         return self.nx * self.ny * self.settings.orientations
 

@@ -7,9 +7,11 @@ Dijkstra (scipy's csgraph) over the cells the body centroid can occupy, 8-connec
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 
 import numpy as np
-from scipy.sparse import coo_matrix
+from numpy.typing import NDArray
+from scipy.sparse import coo_matrix, csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from domain.lattice import LatticeGrid, MotionTable
@@ -51,15 +53,26 @@ def distance_map(
     ok |= np.hypot(centres[:, 0] - goal[0], centres[:, 1] - goal[1]) <= free
     if start is not None:  # the robot is there: it may be touching what it just bumped into
         ok |= np.hypot(centres[:, 0] - start[0], centres[:, 1] - start[1]) <= START_FREE
-    ok = ok.reshape(nx, ny)
+    graph, rows = _topology(nx, ny, r)
+    # The 8-connected graph is built once per grid; edges into or out of blocked cells get an
+    # infinite weight (Dijkstra never improves a distance over them).
+    blocked = ~(ok[rows] & ok[graph.indices])
+    weighted = csr_matrix(
+        (np.where(blocked, np.inf, graph.data), graph.indices, graph.indptr), shape=graph.shape
+    )
+    gi, gj = grid.cell(*goal)
+    dist = dijkstra(weighted, directed=True, indices=gi * ny + gj)
+    return np.asarray(dist, dtype=float).reshape(nx, ny)
+
+
+@lru_cache(maxsize=8)
+def _topology(nx: int, ny: int, r: float) -> tuple[csr_matrix, NDArray[np.intp]]:
+    """Every 8-neighbour edge of an ``nx × ny`` grid with its length, and each edge's source."""
     index = np.arange(nx * ny).reshape(nx, ny)
     rows, cols, weights = [], [], []
     for di, dj in NEIGHBOURS:
-        a = ok[max(0, -di) : nx - max(0, di), max(0, -dj) : ny - max(0, dj)]
-        b = ok[max(0, di) : nx - max(0, -di) : 1, max(0, dj) : ny - max(0, -dj)]
-        both = a & b
-        ia = index[max(0, -di) : nx - max(0, di), max(0, -dj) : ny - max(0, dj)][both]
-        ib = index[max(0, di) : nx - max(0, -di), max(0, dj) : ny - max(0, -dj)][both]
+        ia = index[max(0, -di) : nx - max(0, di), max(0, -dj) : ny - max(0, dj)].ravel()
+        ib = index[max(0, di) : nx - max(0, -di), max(0, dj) : ny - max(0, -dj)].ravel()
         rows.append(ia)
         cols.append(ib)
         weights.append(np.full(ia.size, r * math.hypot(di, dj)))
@@ -67,6 +80,5 @@ def distance_map(
         (np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
         shape=(nx * ny, nx * ny),
     ).tocsr()
-    gi, gj = grid.cell(*goal)
-    dist = dijkstra(graph, directed=True, indices=int(index[gi, gj]))
-    return np.asarray(dist, dtype=float).reshape(nx, ny)
+    sources = np.repeat(np.arange(nx * ny), np.diff(graph.indptr))
+    return graph, sources

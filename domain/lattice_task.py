@@ -77,6 +77,11 @@ class LatticeTask(Task):  # type: ignore[misc]
         ] = {}  # state -> [(next, primitive's PDDL name)]
         self.near: set[int] = set()
         self._facts: dict[int, Fact] = {}
+        self._size = grid.size
+        self._heads = [
+            tuple(float(v) for v in table.pose_of_centroid(np.zeros(2), k)[:2])
+            for k in range(grid.settings.orientations)
+        ]
         start_fact = self.fact(self.start_number)
         super().__init__(
             "lattice",
@@ -93,7 +98,7 @@ class LatticeTask(Task):  # type: ignore[misc]
         return f
 
     def at(self, state: frozenset[Fact]) -> int | None:
-        size = self.grid.size
+        size = self._size
         for f in state:
             if f.number < size:
                 return f.number
@@ -105,7 +110,11 @@ class LatticeTask(Task):  # type: ignore[misc]
         return self.table.pose_of_centroid(self.grid.centre(i, j), k)[:2]
 
     def is_near(self, key: Key) -> bool:
-        return math.dist(self.head(key), self.goal) <= self.reach
+        i, j, k = key
+        dx, dy = self._heads[k]  # the tracked point relative to the centroid, per orientation
+        r, b = self.grid.settings.resolution, self.grid.bounds
+        x, y = b.xmin + (i + 0.5) * r + dx, b.ymin + (j + 0.5) * r + dy
+        return math.hypot(x - self.goal[0], y - self.goal[1]) <= self.reach
 
     def valid_motions(self, key: Key) -> list[tuple[Key, int]]:
         """The motions (indices) whose swept footprint is clear from ``key``, with where they
@@ -153,7 +162,7 @@ class LatticeTask(Task):  # type: ignore[misc]
             if fresh:
                 edges.append((b, names[m]))
             there = self.fact(b)
-            name = f"(move {state_name(number)} {state_name(b)} {names[m]})"
+            name = f"(move s{number} s{b} {names[m]})"  # state_name() inlined: a hot loop
             succ.append((Operator(name, [here], [there], [here]), frozenset([there])))
         return succ
 
