@@ -200,6 +200,16 @@ class LatticeGrid:
     def ny(self) -> int:
         return max(1, math.ceil((self.bounds.ymax - self.bounds.ymin) / self.settings.resolution))
 
+    @cached_property
+    def centres(self) -> Array:
+        """Every cell centre ``[nx * ny, 2]``, cell (i, j) at row ``i * ny + j``."""
+        r = self.settings.resolution
+        xs = self.bounds.xmin + (np.arange(self.nx) + 0.5) * r
+        ys = self.bounds.ymin + (np.arange(self.ny) + 0.5) * r
+        cx, cy = np.meshgrid(xs, ys, indexing="ij")
+        out: Array = np.stack([cx.ravel(), cy.ravel()], -1)
+        return out
+
     def centre(self, i: int, j: int) -> Array:
         r = self.settings.resolution
         return np.array([self.bounds.xmin + (i + 0.5) * r, self.bounds.ymin + (j + 0.5) * r])

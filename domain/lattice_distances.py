@@ -15,7 +15,6 @@ from scipy.sparse import coo_matrix, csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from domain.lattice import LatticeGrid, MotionTable
-from domain.lattice_task import Clearance
 from sim.robot import Array
 from sim.world import footprint
 
@@ -35,21 +34,19 @@ def centroid_need(table: MotionTable) -> float:
 
 def distance_map(
     grid: LatticeGrid,
-    clearance: Clearance,
+    at_centres: Array,
     goal: tuple[float, float],
     need: float,
     free: float,
     start: tuple[float, float] | None = None,
 ) -> Array:
     """Geodesic distance (m) from ``goal`` to every cell over cells whose centre keeps
-    ``need`` clear (less the half-cell the centroid may sit off a centre); cells within ``free``
-    of the goal (where the body reaches the goal with its head) are passable."""
+    ``need`` clear (``at_centres``: the clearance at ``grid.centres``; less the half-cell the
+    centroid may sit off a centre); cells within ``free`` of the goal (where the body reaches
+    the goal with its head) are passable."""
     nx, ny, r = grid.nx, grid.ny, grid.settings.resolution
-    xs = grid.bounds.xmin + (np.arange(nx) + 0.5) * r
-    ys = grid.bounds.ymin + (np.arange(ny) + 0.5) * r
-    cx, cy = np.meshgrid(xs, ys, indexing="ij")
-    centres = np.stack([cx.ravel(), cy.ravel()], -1)
-    ok = clearance(centres) >= need - r * math.sqrt(0.5)
+    centres = grid.centres
+    ok = at_centres >= need - r * math.sqrt(0.5)
     ok |= np.hypot(centres[:, 0] - goal[0], centres[:, 1] - goal[1]) <= free
     if start is not None:  # the robot is there: it may be touching what it just bumped into
         ok |= np.hypot(centres[:, 0] - start[0], centres[:, 1] - start[1]) <= START_FREE

@@ -21,6 +21,7 @@ from typing import Any
 import numpy as np
 
 from domain.lattice import Key, LatticeGrid, LatticeSettings, MotionTable
+from domain.lattice_cache import MotionCache
 from domain.lattice_distances import centroid_need, distance_map
 from domain.lattice_reach import Reachability
 from domain.lattice_task import Clearance, LatticeHeuristic, LatticeTask, primitive_name
@@ -112,6 +113,8 @@ class LatticePlanner:
         self.search, self.heuristic, self.time_limit = search, heuristic, time_limit
         self._maps: dict[tuple[Any, ...], Array] = {}
         self._reach: dict[tuple[Any, ...], Reachability] = {}
+        self._motions: dict[tuple[Any, ...], MotionCache] = {}
+        self._centres: tuple[Any, Array] | None = None
 
     # -- lattice states ---------------------------------------------------------------------
     def key_of(self, table: MotionTable, pose: Sequence[float]) -> Key:
@@ -140,7 +143,12 @@ class LatticePlanner:
                 self._maps.clear()
             free = float(np.linalg.norm(table.offset)) + goal.tolerance
             self._maps[key] = distance_map(
-                self.grid, clearance, (goal.x, goal.y), centroid_need(table), free, start
+                self.grid,
+                self.centre_clearance(clearance, version),
+                (goal.x, goal.y),
+                centroid_need(table),
+                free,
+                start,
             )
         return self._maps[key]
 
@@ -172,6 +180,7 @@ class LatticePlanner:
         """
         started = time.monotonic()
         deadline = started + self.time_limit
+        self.motion_cache(table).refresh(self.centre_clearance(clearance, version), version)
         start = self.key_of(table, pose)
         si, sj, _ = start
         here_xy = tuple(float(v) for v in self.grid.centre(si, sj))
@@ -245,7 +254,25 @@ class LatticePlanner:
             goal.index,
         )
         task.deadline, task.cancel = deadline, cancel
+        task.cache = self.motion_cache(table)
+        task.at_centres = self._centres[1] if self._centres is not None else None
         return task
+
+    def centre_clearance(self, clearance: Clearance, version: Any) -> Array:
+        """The clearance at every cell centre for a world version (computed once per version:
+        the distance map, the heuristic and the motion cache all read it)."""
+        if self._centres is None or self._centres[0] != version:
+            self._centres = (version, clearance(self.grid.centres))
+        return self._centres[1]
+
+    def motion_cache(self, table: MotionTable) -> MotionCache:
+        """The free motions of this shape's lattice kept between replans."""
+        key = (table.shape, tuple(np.round(table.joints, 3)), self.settings.margin)
+        if key not in self._motions:
+            if len(self._motions) > 4:
+                self._motions.clear()
+            self._motions[key] = MotionCache(self.grid, table, self.settings.margin)
+        return self._motions[key]
 
     def _search(self, task: LatticeTask, distances: Array) -> PlanResult:
         """pyperplan's search on the leg. When time runs out, the path to the most promising
