@@ -78,7 +78,8 @@ def simulate(
         console.print(f"goal {goal}: distance {error:.3f} m")
     name = case or "simulate"
     path = out or Path("out") / f"{name}.png"
-    plot_trajectories(path, [states], title=name, goals=[goal] if goal else [])
+    times = config.dt * np.arange(len(states))
+    plot_trajectories(path, [states], title=name, goals=[goal] if goal else [], times=[times])
     console.print(f"plot: {path}")
 
 
