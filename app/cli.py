@@ -78,7 +78,7 @@ def simulate(
         console.print(f"goal {goal}: distance {error:.3f} m")
     name = case or "simulate"
     path = out or Path("out") / f"{name}.png"
-    times = config.dt * np.arange(len(states))
+    times = np.arange(len(states), dtype=np.float64) * config.dt
     plot_trajectories(path, [states], title=name, goals=[goal] if goal else [], times=[times])
     console.print(f"plot: {path}")
 
