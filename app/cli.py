@@ -8,9 +8,12 @@ from typing import Annotated
 
 import numpy as np
 import typer
+from pydantic import ValidationError
 from rich.table import Table
 
-from app.console import console, fail
+from app.api.schemas import SimulateIn
+from app.console import console, fail, invalid
+from app.missions.spec import Pose
 from app.plots import plot_trajectories
 from sim.controls import Control, FixedShape, PeriodicGait
 from sim.paper_cases import PAPER_CASES
@@ -48,6 +51,19 @@ def simulate(
 ) -> None:
     """Run one control open-loop, print the end pose and write a trajectory plot."""
     goal: tuple[float, float] | None = None
+    if case is None and theta is not None:  # what POST /simulate rejects is rejected here too
+        try:
+            SimulateIn(
+                theta=list(theta),
+                joints=None if joints is None else list(joints),
+                phases=None if phases is None else list(phases),
+                duration=duration,
+                dt=dt,
+                start=Pose(x=start[0], y=start[1], psi=start[2]),
+                joint_mode=joint_mode,  # type: ignore[arg-type]  # checked by the model
+            )
+        except ValidationError as exc:
+            raise invalid(exc) from exc
     try:
         control: Control
         if case is not None:

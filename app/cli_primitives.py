@@ -8,16 +8,19 @@ from typing import Annotated
 
 import numpy as np
 import typer
+from pydantic import ValidationError
+from rich import box
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from app.console import console, fail
+from app.api.schemas import LearnIn
+from app.console import console, fail, invalid
 from app.plots import plot_learning_curves, plot_trajectories
 from primitives.build import build_library
 from primitives.catalogue import FAMILIES, PrimitiveSpec, default_specs, grid_specs, lattice_specs
 from primitives.executors import make_executor
 from primitives.learners import LEARNERS, StopRule, UpdateRecord, make_learner
-from primitives.library import Library, LibraryError, bundled_library_path
+from primitives.library import Library, LibraryError, Primitive, bundled_library_path
 from primitives.params import ParameterSpace
 from primitives.shapes import SHAPES, shape_named
 from primitives.task import LearningTask
@@ -39,7 +42,19 @@ def learn(
     max_updates: Annotated[int, typer.Option(help="update budget")] = 100,
     out: Annotated[Path, typer.Option(help="learning-curve plot (PNG)")] = Path("out/learn.png"),
 ) -> None:
-    """Learn one primitive, with a progress bar and a learning-curve plot."""
+    """Learn one primitive, with a progress bar and a learning-curve plot; exits 1 when it
+    does not converge below the threshold."""
+    try:  # the API's request model: what POST /jobs/learn rejects is rejected here too
+        LearnIn(
+            goal=goal,
+            shape=shape,
+            learner=learner,  # type: ignore[arg-type]  # checked by the model
+            seed=seed,
+            threshold=threshold,
+            max_updates=max_updates,
+        )
+    except ValidationError as exc:
+        raise invalid(exc) from exc
     try:
         space = ParameterSpace.for_shape(shape)
         task = LearningTask(goal, space)
@@ -75,6 +90,8 @@ def learn(
         out, [result.curve], title=f"{algo.name}: goal {goal}, {shape}", threshold=threshold
     )
     console.print(f"plot: {out}")
+    if not result.converged:
+        raise typer.Exit(code=1)  # like a failed mission: scripts see that it did not work
 
 
 def load_library(path: Path | None) -> Library:
@@ -153,41 +170,48 @@ def library_show(
     ] = None,
     shape: Annotated[str | None, typer.Option(help="only this shape")] = None,
     family: Annotated[str | None, typer.Option(help="only this family: paper or lattice")] = None,
+    params: Annotated[
+        bool, typer.Option("--params", help="add the parameters (θ̇, φ/ϕ): a wide table")
+    ] = False,
 ) -> None:
-    """List the primitives: id, label, shape, goal, direction, turn, duration, parameters, error."""
+    """List the primitives: id, label, goal, direction, turn, duration, error, updates."""
     library = load_library(path)
-    table = Table(title=f"{len(library)} primitives")
-    for col in (
-        "id",
-        "label",
-        "shape",
-        "goal (m)",
-        "dir (°)",
-        "turn (°)",
-        "T (s)",
-        "θ̇ (rad/s)",
-        "φ / ϕ (rad)",
-        "error (cm)",
-        "updates",
-    ):
-        table.add_column(col)
-    for e in library:
-        if (shape and e.shape != shape) or (family and e.family != family):
-            continue
-        table.add_row(
-            e.id,
-            e.label or "",
-            e.shape,
-            f"({e.goal[0]:.2f}, {e.goal[1]:.2f})",
+    if shape is not None and not library.of_shape(shape):
+        raise fail(f"no primitives of shape {shape!r}; shapes: {', '.join(library.shapes())}")
+    if family is not None and family not in FAMILIES:
+        raise fail(f"family: one of {', '.join(FAMILIES)}; got {family!r}")
+    entries = [
+        e for e in library if (not shape or e.shape == shape) and (not family or e.family == family)
+    ]
+    console.print(primitives_table(entries, len(library), params))
+
+
+def primitives_table(entries: list[Primitive], total: int, params: bool) -> Table:
+    """The primitives as a table that fits 80 columns (without ``params``): ids are what users
+    copy into missions, so they are never cut; the title counts the rows shown."""
+    title = f"{len(entries)} primitives" + (f" (of {total})" if len(entries) < total else "")
+    table = Table(title=title, box=box.SIMPLE_HEAD, pad_edge=False, collapse_padding=True)
+    table.add_column("id", no_wrap=True, min_width=max((len(e.id) for e in entries), default=2))
+    columns = ["label", "goal (m)", "dir°", "turn°", "T s"]  # the id names the shape
+    columns += [*(["θ̇ rad/s", "φ / ϕ rad"] if params else []), "err cm", "upd"]
+    for col in columns:
+        table.add_column(col, justify="left" if col == "label" else "right", no_wrap=not params)
+    for e in entries:
+        row = [e.id, e.label or ""]
+        row += [
+            f"{e.goal[0]:.2f},{e.goal[1]:.2f}",
             f"{e.direction:.0f}",
             f"{math.degrees(e.turn):+.3g}" if e.family == "lattice" else "",
             f"{e.rollout.duration:g}",
-            " ".join(f"{v:+.2f}" for v in e.theta),
-            " ".join(f"{v:+.2f}" for v in (e.phases or e.joints or ())),
-            f"{e.cost * 100:.1f}",
-            str(e.updates),
-        )
-    console.print(table)
+        ]
+        if params:
+            row += [
+                " ".join(f"{v:+.2f}" for v in e.theta),
+                " ".join(f"{v:+.2f}" for v in (e.phases or e.joints or ())),
+            ]
+        row += [f"{e.cost * 100:.1f}", str(e.updates)]
+        table.add_row(*row)
+    return table
 
 
 @library_cli.command("plot")
