@@ -88,7 +88,7 @@ function setStatus() {
   const m = state.mission;
   if (!m) return;
   const goals = `${(m.goals || []).filter((g) => g.reached).length}/${(m.goals || []).length} ` +
-    (m.goals || []).map((g) => (g.reached ? "✓" : "·")).join("");
+    (m.goals || []).map((g) => (g.reached ? "✓" : "○")).join("");
   const t = state.pose && state.pose.t !== undefined ? state.pose.t : m.model_time;
   $("status").innerHTML = `<b>${esc(m.name)}</b> <span class="st ${state.status}" id="mission-status">${state.status}</span> ` +
     `t = ${Number(t).toFixed(1)} s · goals ${goals} · replans ${m.replans}` +
@@ -216,6 +216,8 @@ function connect(id, token) {
       showTree(f.tree, f.t); showPlan(state.plan);
     } else if (f.type === "plan") showPlan(f.actions, f.version);
     else if (f.type === "event") {
+      // A replan comes twice: from the tree (with its plan version) and from the store's record.
+      if (f.kind === "replan" && "old" in f) return;
       if (f.kind === "status") { state.status = f.status; if (f.reason) state.reason = f.reason; }
       else if (f.kind === "goal_reached" && state.mission.goals[f.goal]) state.mission.goals[f.goal].reached = true;
       else if (f.kind === "replan") state.mission.replans += 1;
