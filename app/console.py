@@ -2,11 +2,21 @@
 
 from __future__ import annotations
 
+import json
+from typing import Annotated, Any
+
 import typer
 from pydantic import ValidationError
 from rich.console import Console
 
 console = Console()
+# The --json option every command takes: one JSON document on stdout, for scripts.
+AsJson = Annotated[bool, typer.Option("--json", help="print the result as JSON (for scripts)")]
+
+
+def emit(data: Any) -> None:
+    """Print ``data`` as one JSON document (plain stdout: no colour, no wrapping)."""
+    typer.echo(json.dumps(data, indent=2, default=str))
 
 
 def fail(message: str) -> typer.Exit:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 from typer.testing import CliRunner
@@ -9,6 +10,7 @@ from typer.testing import CliRunner
 from app.cli import cli
 
 runner = CliRunner()
+EXAMPLES = Path(__file__).parents[2] / "examples"
 
 
 def test_learn_exits_1_when_it_does_not_converge(tmp_path: Path) -> None:
@@ -54,3 +56,52 @@ def test_library_show_checks_the_shape_and_counts_what_it_shows() -> None:
     assert "lat-semi-zigzag-t025-a180" in shown.output  # ids in full, never "semi-…"
     assert "…" not in shown.output
     assert max(len(line) for line in lines) <= 80
+
+
+def test_every_command_prints_json_for_scripts(tmp_path: Path) -> None:
+    sim = runner.invoke(
+        cli, ["simulate", "--case", "exp4", "--out", str(tmp_path / "s.png"), "--json"]
+    )
+    data = json.loads(sim.output)
+    assert sim.exit_code == 0 and abs(data["end"]["x"] + 2.04) < 0.01 and data["distance"] < 0.1
+
+    learn = runner.invoke(
+        cli,
+        [
+            "learn",
+            "--goal",
+            "-2",
+            "-2",
+            "--max-updates",
+            "1",
+            "--out",
+            str(tmp_path / "l.png"),
+            "--json",
+        ],
+    )
+    data = json.loads(learn.output)
+    assert learn.exit_code == 1 and data["converged"] is False and len(data["theta"]) == 4
+
+    show = runner.invoke(cli, ["library", "show", "--shape", "straight", "--json"])
+    data = json.loads(show.output)
+    assert show.exit_code == 0 and data["shown"] == len(data["primitives"]) < data["total"]
+    assert {p["shape"] for p in data["primitives"]} == {"straight"}
+
+    plot = runner.invoke(cli, ["library", "plot", "--out", str(tmp_path / "p.png"), "--json"])
+    assert plot.exit_code == 0 and "straight-g1" in json.loads(plot.output)["primitives"]
+
+    listed = runner.invoke(cli, ["paper", "list", "--json"])
+    assert listed.exit_code == 0 and "exp1" in {e["name"] for e in json.loads(listed.output)}
+
+    mission = runner.invoke(
+        cli,
+        [
+            "mission",
+            str(EXAMPLES / "fig9a-single-goal.json"),
+            "--out",
+            str(tmp_path / "m.png"),
+            "--json",
+        ],
+    )
+    data = json.loads(mission.output)
+    assert mission.exit_code == 0 and data["status"] == "succeeded" and data["goals"][0]["reached"]
