@@ -211,7 +211,8 @@ export function drawScene(canvas, cam, scene) {
   }
   const cell = (scene.world.resolution || 0.05) * cam.scale;
   ctx.fillStyle = STYLE.sensed;
-  for (const [x, y] of scene.world.sensed) ctx.fillRect(cam.X(x) - cell / 2, cam.Y(y) - cell / 2, cell, cell);
+  const inside = ([x, y]) => x >= b.xmin && x <= b.xmax && y >= b.ymin && y <= b.ymax;
+  for (const [x, y] of scene.world.sensed.filter(inside)) ctx.fillRect(cam.X(x) - cell / 2, cam.Y(y) - cell / 2, cell, cell);
   for (const [x, y] of scene.world.contacts) marker(ctx, cam.X(x), cam.Y(y), "square", STYLE.contact, Math.max(2, cell / 2));
   if (scene.truth) {
     ctx.save(); ctx.setLineDash([5, 4]); ctx.lineWidth = 2; ctx.strokeStyle = STYLE.truth.stroke;

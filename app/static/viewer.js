@@ -218,7 +218,11 @@ function connect(id, token) {
     else if (f.type === "event") {
       // A replan comes twice: from the tree (with its plan version) and from the store's record.
       if (f.kind === "replan" && "old" in f) return;
-      if (f.kind === "status") { state.status = f.status; if (f.reason) state.reason = f.reason; }
+      if (f.kind === "status") {
+        state.status = f.status; if (f.reason) state.reason = f.reason;
+        const badge = document.querySelector(`#missions li[data-id="${id}"] .st`); // list polls slower
+        if (badge) { badge.textContent = f.status; badge.className = `st ${f.status}`; }
+      }
       else if (f.kind === "goal_reached" && state.mission.goals[f.goal]) state.mission.goals[f.goal].reached = true;
       else if (f.kind === "replan") state.mission.replans += 1;
       if (f.kind !== "status") {
@@ -276,6 +280,13 @@ async function select(id) {
     state.live = true;
     connect(id, token);
     loadWorld(id, token).catch(() => {});
+    // Events from before we connected (the stored state, about a second old), then the live ones.
+    api(`/missions/${id}/replay`).then((r) => {
+      if (token !== selecting) return;
+      const first = state.events.length ? state.events[0].t : Infinity;
+      state.events = [...r.events.filter((e) => e.t < first), ...state.events];
+      showEvents();
+    }).catch(() => {});
   }
 }
 
