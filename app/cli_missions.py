@@ -4,14 +4,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Any
 
 import numpy as np
 import typer
 from rich.table import Table
 
 from app.cli_primitives import load_library
-from app.console import console, fail
+from app.console import AsJson, console, emit, fail
 from app.executor.context import MissionResult
 from app.executor.runner import MissionError, MissionRunner
 from app.missions.spec import MissionFileError, MissionSpec, load_mission
@@ -25,18 +25,39 @@ def sensed_cells(runner: MissionRunner) -> list[list[float]]:
     return [*world.get("sensed", []), *world.get("contact", [])]
 
 
+def event_marks(
+    events: Sequence[dict[str, Any]], trajectory: Sequence[Sequence[float]]
+) -> list[tuple[float, float, str]]:
+    """Events as plot marks ``(x, y, text)``: a contact where it touched, the others where the
+    robot was at the event's model time; texts group alike events (``replan: path_blocked``)."""
+    if not trajectory:
+        return []
+    times = np.array([row[0] for row in trajectory])
+    marks = []
+    for e in events:
+        kind = e.get("kind", "")
+        if kind == "obstacle_sensed":  # every few ticks: the sensed cells show this instead
+            continue
+        if kind == "collision" and isinstance(e.get("at"), list):
+            x, y = float(e["at"][0]), float(e["at"][1])
+        else:
+            k = min(int(np.searchsorted(times, e.get("t", 0.0))), len(times) - 1)
+            x, y = float(trajectory[k][1]), float(trajectory[k][2])
+        text = {
+            "replan": f"replan: {e.get('trigger', '')}",
+            "collision": "contact",
+            "goal_reached": "goal reached",
+        }.get(kind, kind)
+        marks.append((x, y, text))
+    return marks
+
+
 def plot_mission(
     spec: MissionSpec, result: MissionResult, out: Path, sensed: Sequence[Sequence[float]]
 ) -> Path:
+    """The mission's path coloured by model time, its events as markers, what it sensed."""
     states = np.array([row[1:] for row in result.trajectory])
     world = World(spec.bounds.bounds(), tuple(spec.world_obstacles()))
-    replans = [(e["t"], e["trigger"]) for e in result.events if e["kind"] == "replan"]
-    times = np.array([row[0] for row in result.trajectory])
-    marks = []
-    for t, trigger in replans:
-        k = int(np.searchsorted(times, t))
-        k = min(k, len(states) - 1)
-        marks.append((float(states[k, 0]), float(states[k, 1]), trigger))
     title = f"{spec.name}: {result.status} ({result.model_time:g} model s)"
     return plot_trajectories(
         out,
@@ -45,8 +66,9 @@ def plot_mission(
         goals=[(g.x, g.y) for g in result.goals],
         world=world,
         outlines=6,
-        marks=marks,
+        marks=event_marks(result.events, result.trajectory),
         points=[(float(p[0]), float(p[1])) for p in sensed],
+        times=[np.array([row[0] for row in result.trajectory])],
     )
 
 
@@ -89,6 +111,7 @@ def mission(
     library: Annotated[
         Path | None, typer.Option(help="primitive library (default: bundled)")
     ] = None,
+    as_json: AsJson = False,
 ) -> None:
     """Run a mission headless, print a summary and write a trajectory plot."""
     try:
@@ -97,9 +120,12 @@ def mission(
     except (MissionFileError, MissionError) as exc:
         raise fail(str(exc)) from exc
     result = runner.run()
-    print_summary(result)
     path = plot_mission(spec, result, out or Path("out") / f"{spec.name}.png", sensed_cells(runner))
-    console.print(f"plot: {path}")
+    if as_json:
+        emit({**result.summary(), "plot": str(path)})
+    else:
+        print_summary(result)
+        console.print(f"plot: {path}")
     if result.status != "succeeded":
         raise typer.Exit(code=1)
 
@@ -110,11 +136,20 @@ def paper(
     library: Annotated[
         Path | None, typer.Option(help="primitive library (default: bundled)")
     ] = None,
+    as_json: AsJson = False,
 ) -> None:
     """List, or run, the paper's experiments that the system reproduces."""
     from app.paper import EXPERIMENTS
 
     if name.lower() == "list":
+        if as_json:
+            emit(
+                [
+                    {"name": e.name, "figure": e.figure, "what": e.title}
+                    for e in EXPERIMENTS.values()
+                ]
+            )
+            return
         table = Table(title="reproducible experiments")
         for col in ("name", "figure", "what"):
             table.add_column(col)
@@ -126,6 +161,16 @@ def paper(
         raise fail(f"unknown experiment {name!r}; run `screwsnake paper list`")
     experiment = EXPERIMENTS[name]
     rows, path = experiment.run(load_library(library), out)
+    if as_json:
+        emit(
+            {
+                "experiment": experiment.name,
+                "figure": experiment.figure,
+                "rows": [{"what": r[0], "paper": r[1], "screwsnake": r[2]} for r in rows],
+                "plot": str(path),
+            }
+        )
+        return
     table = Table(title=f"{experiment.figure}: {experiment.title}")
     for col in ("", "the paper", "screwsnake"):
         table.add_column(col)

@@ -8,7 +8,7 @@ from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
 
-from app.api import errors, health, jobs, missions, primitives, simulate, viewer, ws
+from app.api import errors, health, jobs, missions, primitives, replay, simulate, viewer, ws
 from app.api.deps import Services
 from app.service.hub import Hub
 from app.service.jobs import Jobs
@@ -55,7 +55,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     errors.install(app)
     errors.document(app)
-    for module in (missions, primitives, simulate, jobs, health, ws, viewer):
+    for module in (missions, replay, primitives, simulate, jobs, health, ws, viewer):
         app.include_router(module.router)
     return app
 

@@ -23,6 +23,7 @@ from primitives.library import Library
 
 WORKER_NICENESS = 10
 STATE_SAVE_SECONDS = 1.0  # wall seconds between state writes of a running mission
+EVENTS_KEPT = 1000  # events kept in a mission's stored state (the newest)
 Message = tuple[Any, ...]
 
 
@@ -45,6 +46,11 @@ def mission_state(runner: MissionRunner) -> dict[str, Any]:
         "action": ctx.current_action,
         "sensed": world.get("sensed", []),
         "contacts": world.get("contact", []),
+        "resolution": world.get("resolution"),
+        # For the viewer's replay: every event (the newest EVENTS_KEPT), and the model time at
+        # which each plan version was made (index = version - 1).
+        "events": ctx.events[-EVENTS_KEPT:],
+        "plan_times": [round(r.at, 3) for r in ctx.replans],
     }
 
 
