@@ -94,7 +94,10 @@ def run(side: float, library: object, seed: int = 0) -> dict[str, Any]:
 
 
 def ms(value: float | None) -> str:
-    return "-" if value is None else f"{value * 1e3:.0f}"
+    """Seconds as milliseconds, to 0.1 ms below 10 ms."""
+    if value is None:
+        return "-"
+    return f"{value * 1e3:.1f}" if value < 0.01 else f"{value * 1e3:.0f}"
 
 
 def peer(run: FdRun, limit: float) -> str:
