@@ -148,7 +148,7 @@ def table(args: argparse.Namespace) -> None:
         f"{'FD driver':>11}{'translate':>10}{'FD search':>17}{'FD via UP':>11}"
         f"{'our len':>8}{'FD len':>7}{'export states/facts':>21}"
     )
-    notes = []
+    notes, partial = [], False
     for side in args.sizes:
         r = run(side, library, args.seed)
         e = r["export"]
@@ -161,6 +161,7 @@ def table(args: argparse.Namespace) -> None:
         )
         search = f"{ms(fd.search)} ({ms(fd.search_total)})" if fd.status == "solved" else "-"
         ours = f"{e['length']}" + ("" if e["solved"] else "*")
+        partial |= not e["solved"]
         print(
             f"{side:>5g} m{r['first']:>8.0f}{r['p50']:>11.1f}{r['p95']:>7.1f}{r['n']:>3.0f}"
             f"{peer(fd, args.fd_limit):>11}{ms(fd.translate) if fd.status == 'solved' else '-':>10}"
@@ -179,7 +180,8 @@ def table(args: argparse.Namespace) -> None:
                 )
             if name == "UP" and run_.read is not None:
                 notes.append(f"{side:g} m, UP: read {ms(run_.read)} ms of {ms(run_.wall)} ms")
-    print("* a partial plan (the search ran out of time; the rest is planned from its end)")
+    if partial:
+        print("* a partial plan (the search ran out of time; the rest is planned from its end)")
     print(
         "unified-planning lists every grounding of every predicate when it writes a problem out "
         "(|states|^2 x |primitives| for succ; aiplan4eu/unified-planning#689), hence its cost."
