@@ -1,20 +1,33 @@
-"""Planning latency on the primitive lattice: first plan and replans, p50/p95 per arena size.
+"""Planning latency on the primitive lattice: first plan and replans, p50/p95 per arena size,
+beside Fast Downward lama-first on the same exported PDDL.
 
 Arenas of 5 m, 10 m and 20 m square with random known clutter (seeded). The robot starts in
 one corner and plans to the far corner; then, ten times, it advances a few steps along its plan
 and an obstacle is sensed on the path ahead (a disc of contact marks in the world model), and
 it replans. DESIGN §8 target: replan p95 <= 50 ms on 10 m x 10 m at the resolution that passes
-0.30 m corridors (0.05 m cells, 64 orientations). Run with the other core loaded for the
-under-load figure (e.g. `python -c 'while 1: pass' &`).
+0.30 m corridors (0.05 m cells, 64 orientations). ``--load`` keeps the other core busy (a
+spinning child process) for the under-load figure.
+
+The first plan's problem, as the mission stores it (domain/lattice_pddl.py), is then given to
+Fast Downward (``up-fast-downward``): its driver run directly (the whole process: Python driver,
+translate and search, and the search alone as its log reports it) and through
+unified-planning's ``OneshotPlanner`` (read + solve). The export holds only the part of the
+lattice our search generated, so Fast Downward searches a smaller problem than we do.
 """
 
 from __future__ import annotations
 
+import argparse
+import subprocess
+import sys
 import time
+from typing import Any
 
 import numpy as np
 
+from bench.fast_downward import FdRun, run_driver, run_unified_planning
 from domain.lattice import LatticeSettings, motion_table
+from domain.lattice_pddl import lattice_domain, lattice_problem
 from domain.lattice_planner import LatticePlanner, LegGoal
 from domain.worldmodel import WorldModel
 from primitives.library import load_bundled
@@ -39,7 +52,7 @@ def clutter(side: float, rng: np.random.Generator) -> list[Circle]:
     return out
 
 
-def run(side: float, library: object, seed: int = 0) -> dict[str, float]:
+def run(side: float, library: object, seed: int = 0) -> dict[str, Any]:
     rng = np.random.default_rng(seed)
     bounds = Bounds(-side / 2, side / 2, -side / 2, side / 2)
     world = WorldModel(bounds, clutter(side, rng))
@@ -52,6 +65,14 @@ def run(side: float, library: object, seed: int = 0) -> dict[str, float]:
     t0 = time.perf_counter()
     plan = planner.plan(table, world.clearance_at, world.version, pose, goal, True)
     first = (time.perf_counter() - t0) * 1e3
+    problem = lattice_problem(plan.legs, "straight") if plan.legs else None
+    export = {
+        "solved": plan.solved and not plan.partial,
+        "length": len(plan.actions),
+        "problem": problem.text() if problem is not None else "",
+        "states": len(problem.objects["lstate"]) if problem is not None else 0,
+        "facts": len(list(problem.init)) if problem is not None else 0,
+    }
     replans: list[float] = []
     for _ in range(REPLANS):
         moves = [a for a in plan.actions if a.name == "move"]
@@ -68,25 +89,105 @@ def run(side: float, library: object, seed: int = 0) -> dict[str, float]:
         "p50": pct(replans, 50),
         "p95": pct(replans, 95),
         "n": len(replans),
-        "steps": len(plan.actions),
-        "solved": float(plan.solved),
+        "export": export,
     }
 
 
-def main() -> None:
+def ms(value: float | None) -> str:
+    """Seconds as milliseconds, to 0.1 ms below 10 ms."""
+    if value is None:
+        return "-"
+    return f"{value * 1e3:.1f}" if value < 0.01 else f"{value * 1e3:.0f}"
+
+
+def peer(run: FdRun, limit: float) -> str:
+    """A Fast Downward run as the table shows it: its wall time, or why there is none."""
+    if run.status == "solved":
+        return ms(run.wall)
+    if run.status == "timeout":
+        return f">{limit:g} s"
+    return run.status
+
+
+def main(argv: list[str] | None = None) -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument(
+        "--sizes", type=float, nargs="+", default=list(SIZES), help="arena sides (m)"
+    )
+    parser.add_argument("--load", action="store_true", help="keep the other core busy meanwhile")
+    parser.add_argument("--fd-limit", type=float, default=300.0, help="s per Fast Downward run")
+    parser.add_argument(
+        "--up-limit", type=float, default=60.0, help="s per unified-planning call (0: skip)"
+    )
+    parser.add_argument("--seed", type=int, default=0)
+    args = parser.parse_args(argv)
+    load = None
+    if args.load:  # one spinning process: the other core is taken while we measure
+        load = subprocess.Popen([sys.executable, "-c", "while True: pass"])
+    try:
+        table(args)
+    finally:
+        if load is not None:
+            load.kill()
+            load.wait()
+
+
+def table(args: argparse.Namespace) -> None:
     library = load_bundled()
     print(
         "lattice: 0.05 m cells, 64 orientations, 22 learned primitives per shape (gbf, lattice h)"
+        + ("; the other core loaded" if args.load else "")
     )
     print(
-        f"{'arena':>8}{'first [ms]':>12}{'replan p50':>12}{'replan p95':>12}{'replans':>9}{'steps':>7}"
+        "FD: Fast Downward lama-first on the first plan's exported PDDL; driver = whole process "
+        "(driver, translate, search), search = its 'Search time' (search component total); "
+        "UP = unified-planning read + OneshotPlanner('fast-downward') (ms)"
     )
-    for side in SIZES:
-        r = run(side, library)
-        print(
-            f"{side:>6g} m{r['first']:>12.1f}{r['p50']:>12.1f}{r['p95']:>12.1f}"
-            f"{r['n']:>9.0f}{r['steps']:>7.0f}"
+    print(
+        f"{'arena':>7}{'first':>8}{'replan p50':>11}{'p95':>7}{'n':>3}"
+        f"{'FD driver':>11}{'translate':>10}{'FD search':>17}{'FD via UP':>11}"
+        f"{'our len':>8}{'FD len':>7}{'export states/facts':>21}"
+    )
+    notes, partial = [], False
+    for side in args.sizes:
+        r = run(side, library, args.seed)
+        e = r["export"]
+        domain = lattice_domain().text()
+        fd = run_driver(domain, e["problem"], args.fd_limit) if e["problem"] else FdRun("no export")
+        up = (
+            run_unified_planning(domain, e["problem"], args.up_limit)
+            if e["problem"] and args.up_limit > 0
+            else FdRun("skipped")
         )
+        search = f"{ms(fd.search)} ({ms(fd.search_total)})" if fd.status == "solved" else "-"
+        ours = f"{e['length']}" + ("" if e["solved"] else "*")
+        partial |= not e["solved"]
+        print(
+            f"{side:>5g} m{r['first']:>8.0f}{r['p50']:>11.1f}{r['p95']:>7.1f}{r['n']:>3.0f}"
+            f"{peer(fd, args.fd_limit):>11}{ms(fd.translate) if fd.status == 'solved' else '-':>10}"
+            f"{search:>17}{peer(up, args.up_limit):>11}"
+            f"{ours:>8}{fd.length if fd.length is not None else '-':>7}"
+            f"{e['states']:>12}/{e['facts']:<8}",
+            flush=True,
+        )
+        for name, run_ in (("driver", fd), ("UP", up)):
+            if run_.detail:
+                notes.append(f"{side:g} m, FD {name}: {run_.detail}")
+            if run_.status == "timeout":
+                notes.append(
+                    f"{side:g} m, FD {name}: no answer within the time limit "
+                    f"({args.fd_limit if name == 'driver' else args.up_limit:g} s)"
+                )
+            if name == "UP" and run_.read is not None:
+                notes.append(f"{side:g} m, UP: read {ms(run_.read)} ms of {ms(run_.wall)} ms")
+    if partial:
+        print("* a partial plan (the search ran out of time; the rest is planned from its end)")
+    print(
+        "unified-planning lists every grounding of every predicate when it writes a problem out "
+        "(|states|^2 x |primitives| for succ; aiplan4eu/unified-planning#689), hence its cost."
+    )
+    for note in notes:
+        print(note)
 
 
 if __name__ == "__main__":

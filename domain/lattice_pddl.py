@@ -10,6 +10,8 @@ Type and predicate names are distinct (unified-planning rejects a name used as b
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 from domain.lattice_task import LatticeTask, state_name
 from domain.pddl import Action, Domain, Problem
 
@@ -46,30 +48,48 @@ def lattice_domain() -> Domain:
     )
 
 
-def lattice_problem(task: LatticeTask, shape: str) -> Problem:
-    """The generated part of ``task``'s lattice as a PDDL problem."""
-    states: set[int] = {task.start_number}
-    init = [f"(at {state_name(task.start_number)})"]
-    primitives: set[str] = set()
-    for a, edges in sorted(task.edges.items()):
-        states.add(a)
-        for b, p in edges:
-            states.add(b)
-            primitives.add(p)
-            init.append(f"(succ {state_name(a)} {state_name(b)} {p})")
-    goal = f"g{task.goal_index}"
-    for s in sorted(task.near):
-        states.add(s)
-        init.append(f"(near {state_name(s)} {goal})")
-    i, j, k = task.start_key
-    comment = (
-        f"shape {shape}; start state {state_name(task.start_number)} = cell ({i}, {j}), "
-        f"orientation {k}; goal {goal} at ({task.goal[0]:g}, {task.goal[1]:g}) within "
-        f"{task.reach:g} m\n{len(task.edges)} states expanded"
-    )
+def lattice_problem(legs: LatticeTask | Sequence[LatticeTask], shape: str) -> Problem:
+    """The generated part of the lattice as a PDDL problem: one leg's task, or every leg of a
+    tour (their lattices merged, one goal point per leg, all to be visited).
+
+    A tour's goals are a conjunction, so the problem does not state an order: a peer planner
+    may visit ordered goals in another order (the plan is still valid on the lattice).
+    """
+    tasks = [legs] if isinstance(legs, LatticeTask) else list(legs)
+    if not tasks:
+        raise ValueError("lattice_problem needs at least one leg")
+    first = tasks[0]
+    states: set[int] = {first.start_number}
+    edges: set[tuple[int, int, str]] = set()
+    near: set[tuple[int, int]] = set()
+    for task in tasks:
+        states.add(task.start_number)
+        for a, out in task.edges.items():
+            states.add(a)
+            edges.update((a, b, p) for b, p in out)
+        near.update((s, task.goal_index) for s in task.near)
+    states.update(b for _, b, _ in edges)
+    states.update(s for s, _ in near)
+    init = [f"(at {state_name(first.start_number)})"]
+    init += [f"(succ {state_name(a)} {state_name(b)} {p})" for a, b, p in sorted(edges)]
+    init += [f"(near {state_name(s)} g{g})" for s, g in sorted(near)]
+    goals = [f"g{t.goal_index}" for t in tasks]
+    i, j, k = first.start_key
+    lines = [
+        f"shape {shape}; start state {state_name(first.start_number)} = cell ({i}, {j}), "
+        f"orientation {k}"
+    ]
+    lines += [
+        f"goal g{t.goal_index} at ({t.goal[0]:g}, {t.goal[1]:g}) within {t.reach:g} m; "
+        f"{len(t.edges)} states expanded for it"
+        for t in tasks
+    ]
+    if len(tasks) > 1:
+        lines.append("goals in the order planned; the PDDL goal does not state an order")
     objects = {
         "lstate": [state_name(s) for s in sorted(states)],
-        "primitive": sorted(primitives) or ["none"],
-        "goalpoint": [goal],
+        "primitive": sorted({p for _, _, p in edges}) or ["none"],
+        "goalpoint": goals,
     }
-    return Problem("lattice", "screwsnake-lattice", objects, init, [f"(visited {goal})"], comment)
+    goal = [f"(visited {g})" for g in goals]
+    return Problem("lattice", "screwsnake-lattice", objects, init, goal, "\n".join(lines))

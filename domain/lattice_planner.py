@@ -67,6 +67,7 @@ class LatticePlan:
     expansions: int = 0
     search_ms: float = 0.0
     task: LatticeTask | None = None  # the first leg's task (for the PDDL export)
+    legs: list[LatticeTask] = field(default_factory=list)  # every leg's task (the PDDL export)
     partial: bool = False  # the search ran out of time: the plan leads towards the goal only
 
     @property
@@ -218,6 +219,7 @@ class LatticePlanner:
                     plan.task = task
                 result = self._search(task, maps[goal.index])
             plan.expansions += task.expansions
+            plan.legs.append(task)
             if not result.solved:
                 plan.status = result.status
                 plan.reason = self._why(result, table, goal)

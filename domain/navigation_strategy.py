@@ -121,7 +121,7 @@ class NavigationStrategy:
         record = ReplanRecord(
             trigger.kind, trigger.detail(), round(s.t, 3), latency, old, plan.pddl_plan, plan.status
         )
-        problem = lattice_problem(plan.task, s.shape).text() if plan.task is not None else ""
+        problem = lattice_problem(plan.legs, s.shape).text() if plan.legs else ""
         self._checked = (s.world.version, 0)
         return Replanned(
             plan.solved, plan.reason, record, lattice_domain().text(), problem, plan.pddl_plan
