@@ -170,7 +170,7 @@ class Simulator:
         )
         # Chords under-estimate arcs slightly when the body turns; 5 % covers |Δψ| up to ~0.6 rad.
         travel = 1.05 * float(np.max(np.linalg.norm(points1 - points0, axis=-1)))
-        if travel <= self.world.gap(footprint(pose0, phi0, self.geometry)):
+        if self.world.free_within(footprint(pose0, phi0, self.geometry), travel):
             self.pose, self.joints = pose1, phi1
             return None
         n = max(1, math.ceil(travel / self.check_step))

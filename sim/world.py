@@ -10,6 +10,7 @@ import numpy as np
 
 from sim.obstacles import Obstacle, ray_segment_hits
 from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry, head_tip, joint_positions
+from sim.scene import Scene
 
 WALL = -1  # obstacle index reported for the arena bounds
 
@@ -96,8 +97,37 @@ class Contact:
 
 @dataclass(frozen=True)
 class World:
+    """Bounds and obstacles; collision and ray queries run over all obstacles at once (``Scene``)
+    and, for the footprint, over only those whose bounding boxes come near it."""
+
     bounds: Bounds = field(default_factory=Bounds)
     obstacles: tuple[Obstacle, ...] = ()
+    _scenes: dict[tuple[int, ...], Scene] = field(
+        init=False, repr=False, compare=False, default_factory=dict
+    )
+    _walls: tuple[Array, Array] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        corners = self.bounds.corners()
+        object.__setattr__(self, "_walls", (corners, np.roll(corners, -1, axis=0)))
+
+    def _scene(self, indices: tuple[int, ...]) -> Scene:
+        """The packed arrays of the obstacles at ``indices`` (cached: a mission meets few sets)."""
+        scene = self._scenes.get(indices)
+        if scene is None:
+            scene = Scene([self.obstacles[i] for i in indices])
+            self._scenes[indices] = scene
+        return scene
+
+    def _near(self, fp: Footprint, margin: float) -> tuple[int, ...]:
+        """Obstacles whose bounding boxes come within ``margin`` of the footprint's capsule axes;
+        any other obstacle is further than ``margin`` from every axis point."""
+        if not self.obstacles:
+            return ()
+        everything = self._scene(tuple(range(len(self.obstacles))))
+        ends = np.concatenate([fp.starts, fp.ends])
+        lo, hi = ends.min(axis=0), ends.max(axis=0)
+        return tuple(int(i) for i in everything.near(lo, hi, margin))
 
     def contact(self, fp: Footprint) -> Contact | None:
         """The first obstacle or wall the footprint overlaps, or ``None`` when it is free."""
@@ -106,12 +136,16 @@ class World:
         if np.any(wall):
             part = int(np.argmax(wall)) % len(fp.radii)
             return Contact(WALL, part, self._side(fp, part, self.bounds.wall_clearance))
-        for index, obstacle in enumerate(self.obstacles):
-            hit = obstacle.segment_clearance(fp.starts, fp.ends) < fp.radii
-            if np.any(hit):
-                part = int(np.argmax(hit))
-                return Contact(index, part, self._side(fp, part, _point_distance(obstacle)))
-        return None
+        near = self._near(fp, float(np.max(fp.radii)))
+        if not near:
+            return None
+        hit = self._scene(near).segment_clearance(fp.starts, fp.ends) < fp.radii[:, None]
+        touched = np.any(hit, axis=0)  # [obstacles near], in the obstacles' order
+        if not np.any(touched):
+            return None
+        column = int(np.argmax(touched))
+        index, part = near[column], int(np.argmax(hit[:, column]))
+        return Contact(index, part, self._side(fp, part, _point_distance(self.obstacles[index])))
 
     @staticmethod
     def _side(fp: Footprint, part: int, distance: Callable[[Array], Array]) -> str:
@@ -135,10 +169,13 @@ class World:
     def ray_cast(self, origin: Array, dirs: Array, max_range: float) -> tuple[Array, Array]:
         """First hits of rays ``[R, 2]`` from ``origin``: distances (capped at ``max_range``) and
         what they hit (obstacle index, ``WALL``, or ``-2`` for nothing within range)."""
-        corners = self.bounds.corners()
-        hits = [ray_segment_hits(origin, dirs, corners, np.roll(corners, -1, axis=0)).min(axis=-1)]
-        hits += [obstacle.ray_cast(origin, dirs) for obstacle in self.obstacles]
-        table = np.stack(hits, axis=-1)  # [R, 1 + n_obstacles]
+        corners, following = self._walls
+        walls = ray_segment_hits(origin, dirs, corners, following).min(axis=-1)
+        if self.obstacles:
+            scene = self._scene(tuple(range(len(self.obstacles))))
+            table = np.concatenate([walls[:, None], scene.ray_cast(origin, dirs)], axis=-1)
+        else:
+            table = walls[:, None]  # [R, 1 + n_obstacles]
         best = np.argmin(table, axis=-1)
         dist = table[np.arange(dirs.shape[0]), best]
         what = np.where(best == 0, WALL, best - 1)
@@ -149,6 +186,19 @@ class World:
         """Smallest gap between a footprint and any obstacle or wall (0 if touching)."""
         ends = np.concatenate([fp.starts, fp.ends])
         gap = float(np.min(self.bounds.wall_clearance(ends) - np.tile(fp.radii, 2)))
-        for obstacle in self.obstacles:
-            gap = min(gap, float(np.min(obstacle.segment_clearance(fp.starts, fp.ends) - fp.radii)))
+        if self.obstacles:
+            scene = self._scene(tuple(range(len(self.obstacles))))
+            clearance = scene.segment_clearance(fp.starts, fp.ends) - fp.radii[:, None]
+            gap = min(gap, float(np.min(clearance)))
         return max(gap, 0.0)
+
+    def free_within(self, fp: Footprint, distance: float) -> bool:
+        """Whether ``distance <= gap(fp)``, measuring only obstacles that could decide it
+        (those whose bounding boxes come within ``distance`` + the largest radius)."""
+        ends = np.concatenate([fp.starts, fp.ends])
+        gap = float(np.min(self.bounds.wall_clearance(ends) - np.tile(fp.radii, 2)))
+        near = self._near(fp, distance + float(np.max(fp.radii)))
+        if near:
+            clearance = self._scene(near).segment_clearance(fp.starts, fp.ends)
+            gap = min(gap, float(np.min(clearance - fp.radii[:, None])))
+        return distance <= max(gap, 0.0)
