@@ -16,8 +16,13 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from sim.obstacles import Circle, Obstacle, point_segment_distance, ray_segment_hits
-from sim.obstacles import segment_segment_distance as _segment_distance
+from sim.obstacles import (
+    Circle,
+    Obstacle,
+    point_segment_distance,
+    ray_segment_hits,
+    segments_intersect,
+)
 from sim.robot import Array
 
 Index = NDArray[np.intp]
@@ -51,12 +56,25 @@ class Scene:
             near = point_segment_distance(self.centres[:, None, :], a, b)  # [Nc, C]
             out[:, self.circle_index] = np.maximum(near - self.radii[:, None], 0.0).T
         if self.polygon_index.size:
-            d = _segment_distance(a[:, None, :], b[:, None, :], self.edge_a, self.edge_b)
+            d = self._segment_distance(a, b)  # [C, E]
             nearest = np.minimum.reduceat(d, self.first_edge, axis=1)  # [C, Np]
             inside = self.contains_polygon(np.concatenate([a, b]))  # [2C, Np]
             touching = inside[: a.shape[0]] | inside[a.shape[0] :]
             out[:, self.polygon_index] = np.where(touching, 0.0, nearest)
         return out
+
+    def _segment_distance(self, a: Array, b: Array) -> Array:
+        """``segment_segment_distance`` of every segment ``a-b`` ``[C, 2]`` to every edge, ``[C, E]``:
+        its four point-segment distances as two calls on stacked ends (the same values, since a
+        minimum is exact whatever the order)."""
+        ea, eb = self.edge_a, self.edge_b
+        ends = np.stack([a, b])[:, :, None, :]  # [2, C, 1, 2]: segment ends against edges
+        corners = np.stack([ea, eb])[:, None, :, :]  # [2, 1, E, 2]: edge ends against segments
+        to_edges = point_segment_distance(ends, ea, eb).min(axis=0)
+        to_segments = point_segment_distance(corners, a[:, None, :], b[:, None, :]).min(axis=0)
+        dist = np.minimum(to_edges, to_segments)
+        crossing = segments_intersect(a[:, None, :], b[:, None, :], ea, eb)
+        return np.where(crossing, 0.0, dist)
 
     def contains_polygon(self, points: Array) -> NDArray[np.bool_]:
         """Whether points ``[P, 2]`` lie inside each polygon (even-odd rule), ``[P, Np]``."""

@@ -26,7 +26,7 @@ from sim.robot import (
 )
 from sim.rollout import JOINT_MODES, JointMode
 from sim.sensors import SensorReadings, SensorSuite
-from sim.world import Contact, World, footprint
+from sim.world import Contact, World, footprint, footprint_of
 
 
 @dataclass(frozen=True)
@@ -162,15 +162,14 @@ class Simulator:
     def _sweep(self, phi0: Array, pose1: Array, phi1: Array) -> Contact | None:
         """Move towards (pose1, phi1) in checked sub-steps; stop before the first contact."""
         pose0 = self.pose
-        points0 = np.vstack(
-            [joint_positions(pose0, phi0, self.geometry), head_tip(pose0, self.geometry)]
-        )
+        joints0, tip0 = joint_positions(pose0, phi0, self.geometry), head_tip(pose0, self.geometry)
+        points0 = np.vstack([joints0, tip0])
         points1 = np.vstack(
             [joint_positions(pose1, phi1, self.geometry), head_tip(pose1, self.geometry)]
         )
         # Chords under-estimate arcs slightly when the body turns; 5 % covers |Δψ| up to ~0.6 rad.
         travel = 1.05 * float(np.max(np.linalg.norm(points1 - points0, axis=-1)))
-        if self.world.free_within(footprint(pose0, phi0, self.geometry), travel):
+        if self.world.free_within(footprint_of(joints0, tip0, self.geometry), travel):
             self.pose, self.joints = pose1, phi1
             return None
         n = max(1, math.ceil(travel / self.check_step))

@@ -71,7 +71,12 @@ def _point_distance(obstacle: Obstacle) -> Callable[[Array], Array]:
 def footprint(pose: Array, joints: Array, geometry: RobotGeometry = DEFAULT_GEOMETRY) -> Footprint:
     """The head capsule and the four unit capsules at poses ``[..., 3]`` with ``joints`` ``[3]``."""
     js = joint_positions(pose, joints, geometry)  # [..., 5, 2]
-    tip = head_tip(pose, geometry)
+    return footprint_of(js, head_tip(pose, geometry), geometry)
+
+
+def footprint_of(js: Array, tip: Array, geometry: RobotGeometry = DEFAULT_GEOMETRY) -> Footprint:
+    """The footprint from joint positions ``[..., 5, 2]`` and the head tip ``[..., 2]`` already
+    computed (the simulator has them at hand)."""
     starts = np.concatenate([tip[..., None, :], js[..., :-1, :]], axis=-2)
     ends = np.concatenate([js[..., :1, :], js[..., 1:, :]], axis=-2)
     radii = np.array([geometry.head_radius] + [geometry.unit_radius] * 4)
@@ -129,6 +134,13 @@ class World:
         lo, hi = ends.min(axis=0), ends.max(axis=0)
         return tuple(int(i) for i in everything.near(lo, hi, margin))
 
+    def _near_point(self, point: Array, reach: float) -> tuple[int, ...]:
+        """Obstacles whose bounding boxes come within ``reach`` of ``point`` (box distance)."""
+        if not self.obstacles:
+            return ()
+        everything = self._scene(tuple(range(len(self.obstacles))))
+        return tuple(int(i) for i in everything.near(point, point, reach))
+
     def contact(self, fp: Footprint) -> Contact | None:
         """The first obstacle or wall the footprint overlaps, or ``None`` when it is free."""
         ends = np.concatenate([fp.starts, fp.ends])
@@ -171,21 +183,23 @@ class World:
         what they hit (obstacle index, ``WALL``, or ``-2`` for nothing within range)."""
         corners, following = self._walls
         walls = ray_segment_hits(origin, dirs, corners, following).min(axis=-1)
-        if self.obstacles:
-            scene = self._scene(tuple(range(len(self.obstacles))))
-            table = np.concatenate([walls[:, None], scene.ray_cast(origin, dirs)], axis=-1)
+        # Obstacles whose bounding boxes lie beyond max_range cannot change the capped answer:
+        # they would be hit (if at all) beyond it, which reads as nothing within range.
+        near = self._near_point(origin, max_range)
+        if near:
+            table = np.concatenate([walls[:, None], self._scene(near).ray_cast(origin, dirs)], -1)
         else:
-            table = walls[:, None]  # [R, 1 + n_obstacles]
+            table = walls[:, None]  # [R, 1 + obstacles near]
         best = np.argmin(table, axis=-1)
         dist = table[np.arange(dirs.shape[0]), best]
-        what = np.where(best == 0, WALL, best - 1)
+        what = np.where(best == 0, WALL, np.asarray((WALL, *near))[best])
         what = np.where(dist <= max_range, what, -2)
         return np.minimum(dist, max_range), what
 
     def gap(self, fp: Footprint) -> float:
         """Smallest gap between a footprint and any obstacle or wall (0 if touching)."""
         ends = np.concatenate([fp.starts, fp.ends])
-        gap = float(np.min(self.bounds.wall_clearance(ends) - np.tile(fp.radii, 2)))
+        gap = float(np.min(self.bounds.wall_clearance(ends) - np.concatenate([fp.radii, fp.radii])))
         if self.obstacles:
             scene = self._scene(tuple(range(len(self.obstacles))))
             clearance = scene.segment_clearance(fp.starts, fp.ends) - fp.radii[:, None]
@@ -196,7 +210,7 @@ class World:
         """Whether ``distance <= gap(fp)``, measuring only obstacles that could decide it
         (those whose bounding boxes come within ``distance`` + the largest radius)."""
         ends = np.concatenate([fp.starts, fp.ends])
-        gap = float(np.min(self.bounds.wall_clearance(ends) - np.tile(fp.radii, 2)))
+        gap = float(np.min(self.bounds.wall_clearance(ends) - np.concatenate([fp.radii, fp.radii])))
         near = self._near(fp, distance + float(np.max(fp.radii)))
         if near:
             clearance = self._scene(near).segment_clearance(fp.starts, fp.ends)
