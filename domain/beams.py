@@ -15,7 +15,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from domain.grid import Flat, Grid
+from domain.grid import Flat, Grid, unique_cells
 from domain.observation import RangeObservation
 from sim.robot import Array
 
@@ -77,6 +77,6 @@ def swept_cells(
     points = origins[reading] + rho[:, None] * direction
     flat, keep = grid.locate(points)
     cells = grid.nx * grid.ny
-    keys = np.unique(reading[keep] * cells + flat[keep])
+    keys = unique_cells(reading[keep] * cells + flat[keep])
     which, cell = np.divmod(keys, cells)
     return np.asarray(owners, dtype=np.intp)[which], cell

@@ -30,7 +30,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from domain.beams import cone_directions, swept_cells
-from domain.grid import Flat, Grid
+from domain.grid import Flat, Grid, unique_cells, unique_counts, unique_inverse
 from domain.observation import RangeObservation, range_observations
 from sim.robot import Array
 
@@ -151,13 +151,13 @@ class SensedLayer:
         for obs, cells, likelihood in hits:
             self._share_hit(obs, cells, likelihood, known_clearance.reshape(-1), updates)
         touched.append(self._apply_hits(flat, updates))
-        return self._threshold(np.unique(np.concatenate(touched)))
+        return self._threshold(unique_cells(np.concatenate(touched)))
 
     def _arc(self, obs: RangeObservation, distance: float, step: float) -> tuple[Flat, Array]:
         """The cells where a reading's hit may lie and their summed range likelihoods."""
         points, likelihood = hit_points(obs, distance, step)
         flat, keep = self.grid.locate(points)
-        cells, inverse = np.unique(flat[keep], return_inverse=True)
+        cells, inverse = unique_inverse(flat[keep])
         weights = np.bincount(inverse, weights=likelihood[keep], minlength=cells.size)
         return cells, np.asarray(weights, dtype=np.float64)
 
@@ -193,7 +193,7 @@ class SensedLayer:
     def _apply_free(self, flat: Array, free: list[Flat]) -> Flat:
         if not free:
             return np.zeros(0, dtype=np.intp)
-        cells, n = np.unique(np.concatenate(free), return_counts=True)
+        cells, n = unique_counts(np.concatenate(free))
         s = self.settings
         flat[cells] = np.maximum(flat[cells] + n * s.log_odds_free, s.log_odds_min)
         return cells
@@ -221,6 +221,6 @@ def _summed(cells: list[Flat], gains: list[Array]) -> tuple[Flat, Array]:
     if not cells:
         return np.zeros(0, dtype=np.intp), np.zeros(0)
     all_cells = np.concatenate(cells)
-    unique, inverse = np.unique(all_cells, return_inverse=True)
+    unique, inverse = unique_inverse(all_cells)
     sums = np.bincount(inverse, weights=np.concatenate(gains), minlength=unique.size)
     return unique, np.asarray(sums, dtype=np.float64)
