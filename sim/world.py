@@ -182,7 +182,15 @@ class World:
         """First hits of rays ``[R, 2]`` from ``origin``: distances (capped at ``max_range``) and
         what they hit (obstacle index, ``WALL``, or ``-2`` for nothing within range)."""
         corners, following = self._walls
-        walls = ray_segment_hits(origin, dirs, corners, following).min(axis=-1)
+        # Walls further than max_range (perpendicular distance) are left out the same way.
+        b = self.bounds
+        ox, oy = float(origin[0]), float(origin[1])
+        reach = (oy - b.ymin, b.xmax - ox, b.ymax - oy, ox - b.xmin)  # the four edges in order
+        close = [k for k in range(4) if not reach[k] > max_range]
+        if close:
+            walls = ray_segment_hits(origin, dirs, corners[close], following[close]).min(axis=-1)
+        else:
+            walls = np.full(dirs.shape[0], np.inf)
         # Obstacles whose bounding boxes lie beyond max_range cannot change the capped answer:
         # they would be hit (if at all) beyond it, which reads as nothing within range.
         near = self._near_point(origin, max_range)
