@@ -34,6 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from domain.clearance import DistanceMap, clearance_map
 from domain.occupancy import (
     Grid,
     RangeObservation,
@@ -68,6 +69,9 @@ class WorldModel:
         # Where a touched surface probably goes on (a bumper feels a short piece of a wall);
         # avoided while a way round exists, cleared by beams that see the cells free.
         self._suspected = np.zeros(self.grid.shape, dtype=bool)
+        # Clearance to each dynamic layer, kept current as cells come (``domain.clearance``).
+        self._sensed_map = DistanceMap(self.grid, settings.max_clearance)
+        self._contact_map = DistanceMap(self.grid, settings.max_clearance)
         self._cache: dict[str, Any] = {}
         self._cache_version = -1
         for obstacle in known:
@@ -80,6 +84,10 @@ class WorldModel:
         """Update the sensed layer with range readings; return the world centres of the cells
         that became occupied (NaN readings are dropouts and change nothing)."""
         became, ceased = self._sensed.integrate(observations, self._static)
+        if ceased.size:
+            self._sensed_map.reset()
+        else:
+            self._sensed_map.add(self._sensed.occupied, became)
         changed = bool(became.size or ceased.size)
         if np.any(self._suspected):
             seen_free = self._suspected & (self._sensed.log_odds <= self.settings.suspect_cleared)
@@ -105,8 +113,11 @@ class WorldModel:
         if grid.inside(i, j):
             disc[i - i0, j - j0] = True
         window = self._contact[i0:i1, j0:j1]
-        if np.any(disc & ~window):
+        new = disc & ~window
+        if np.any(new):
             window |= disc
+            ii, jj = np.nonzero(new)
+            self._contact_map.add(self._contact, (ii + i0) * grid.ny + (jj + j0))
             self.version += 1
 
     def add_suspected(self, points: Iterable[tuple[float, float]]) -> None:
@@ -211,9 +222,13 @@ class WorldModel:
             if grow_contact == inflation and not suspect:
                 grown = np.maximum(self._dynamic() - inflation, 0.0)
             else:
-                touched_cells = self._contact | self._suspected if suspect else self._contact
-                sensed = np.maximum(self._distance_to(self._sensed.occupied) - inflation, 0.0)
-                touched = np.maximum(self._distance_to(touched_cells) - grow_contact, 0.0)
+                sensed = np.maximum(self._sensed_map.get(self._sensed.occupied) - inflation, 0.0)
+                if suspect:  # suspected cells come and go with beams: transformed afresh
+                    cap = self.settings.max_clearance
+                    near = clearance_map(self._contact | self._suspected, self.grid.resolution, cap)
+                else:
+                    near = self._contact_map.get(self._contact)
+                touched = np.maximum(near - grow_contact, 0.0)
                 grown = np.minimum(sensed, touched)
             grid = self._store(key, np.minimum(self._static, grown))
         pts = np.asarray(points, dtype=float)
@@ -324,16 +339,6 @@ class WorldModel:
         self._known_distance = np.full(self.grid.shape, cap)  # to known obstacles only
         self._static = np.clip(walls, 0.0, cap)  # walls and known obstacles
 
-    def _distance_to(self, occupied: NDArray[np.bool_]) -> Array:
-        """Clearance to the given cells (distance between centres minus half a cell)."""
-        cap = self.settings.max_clearance
-        if not np.any(occupied):
-            return np.full(self.grid.shape, cap)
-        res = self.grid.resolution
-        dist = ndimage.distance_transform_edt(~occupied) * res - 0.5 * res
-        out: Array = np.clip(dist, 0.0, cap)
-        return out
-
     def _has_dynamic(self) -> bool:
         return bool(np.any(self._sensed.occupied) or np.any(self._contact))
 
@@ -342,14 +347,11 @@ class WorldModel:
         (cached until ``version`` changes)."""
         cached = self._cached("dynamic")
         if cached is None:
-            cap = self.settings.max_clearance
-            if self._has_dynamic():
-                free = ~(self._sensed.occupied | self._contact)
-                res = self.grid.resolution
-                dist = ndimage.distance_transform_edt(free) * res - 0.5 * res
-                cached = self._store("dynamic", np.clip(dist, 0.0, cap))
-            else:
-                cached = self._store("dynamic", np.full(self.grid.shape, cap))
+            # The distance to a union of cells is the smaller of the distances to its parts.
+            sensed = self._sensed_map.get(self._sensed.occupied)
+            cached = self._store(
+                "dynamic", np.minimum(sensed, self._contact_map.get(self._contact))
+            )
         out: Array = cached
         return out
 

@@ -88,9 +88,7 @@ def test_ray_casts_equal_the_obstacle_by_obstacle_reference(seed: int) -> None:
     np.testing.assert_array_equal(dist, np.minimum(nearest, reach))
     np.testing.assert_array_equal(seen, what)
     if world.obstacles:
-        np.testing.assert_array_equal(
-            Scene(world.obstacles).ray_cast(origin, dirs), table[:, 1:]
-        )
+        np.testing.assert_array_equal(Scene(world.obstacles).ray_cast(origin, dirs), table[:, 1:])
 
 
 def test_contact_names_the_first_obstacle_in_order_when_two_touch() -> None:
