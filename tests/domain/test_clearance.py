@@ -49,7 +49,7 @@ def test_world_model_clearance_stays_that_of_its_layers() -> None:
     static = WorldModel(Bounds(-3, 3, -3, 3)).clearance()  # walls only: what nothing sensed leaves
     for tick in range(120):
         readings = []
-        for k in range(6):
+        for _ in range(6):
             # single rays at a few fixed targets: they become occupied; after tick 60 the
             # readings pass through them and they cease to be (the map is rebuilt then)
             target = targets[int(rng.integers(len(targets)))]
