@@ -9,6 +9,7 @@ cells), and de-duplicates per reading with one ``unique`` over (reading, cell) k
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Sequence
 
@@ -44,6 +45,12 @@ def sector_points(obs: RangeObservation, until: float, step: float) -> Array:
     return (np.asarray(obs.origin) + rho[:, None, None] * dirs[None, :, :]).reshape(-1, 2)
 
 
+@functools.lru_cache(maxsize=256)
+def _spread(fov: float, n: int) -> tuple[float, ...]:
+    """``np.linspace(-fov / 2, fov / 2, n)`` as floats (a cone's ray offsets; few distinct ones)."""
+    return tuple(np.linspace(-fov / 2, fov / 2, n).tolist())
+
+
 def swept_cells(
     grid: Grid, readings: Sequence[tuple[RangeObservation, float]], step: float
 ) -> tuple[NDArray[np.intp], Flat]:
@@ -52,28 +59,32 @@ def swept_cells(
 
     Returns parallel arrays (reading index, flat cell), sorted by reading then cell.
     """
-    angles, rhos, owners = [], [], []
+    angles: list[float] = []
+    n_dirs, n_rho, owners = [], [], []
     for k, (obs, until) in enumerate(readings):
         if until <= 0:
             continue
-        angles.append(cone_angles(obs, until, step))
-        # np.arange fills start + i * step: the same values as i * step from 0
-        rhos.append(np.arange(0.0, until, step))
+        n = 1 if obs.fov == 0 else math.ceil(obs.fov * until / step) + 1  # as cone_angles
+        if n > 1:
+            angles += [obs.angle + offset for offset in _spread(obs.fov, n)]
+        else:
+            angles.append(obs.angle)
+        n_dirs.append(n)
+        n_rho.append(math.ceil(until / step))  # len(np.arange(0.0, until, step))
         owners.append(k)
     if not owners:
         return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
-    n_dirs = np.array([a.size for a in angles])
-    n_rho = np.array([r.size for r in rhos])
-    all_angles = np.concatenate(angles)
+    all_angles = np.array(angles)
     dirs = np.stack([np.cos(all_angles), np.sin(all_angles)], axis=-1)  # [D, 2]
     origins = np.array([readings[k][0].origin for k in owners], dtype=float)  # [K, 2]
+    dir_counts, rho_counts = np.array(n_dirs), np.array(n_rho)
     # One sample per (reading, range step, direction), in sector_points' order within a reading.
-    per = n_dirs * n_rho
+    per = dir_counts * rho_counts
     reading = np.repeat(np.arange(len(owners)), per)
     within = np.arange(reading.size) - np.repeat(np.cumsum(per) - per, per)
-    rho_i, dir_i = np.divmod(within, n_dirs[reading])
-    rho = np.concatenate(rhos)[np.repeat(np.cumsum(n_rho) - n_rho, per) + rho_i]
-    direction = dirs[np.repeat(np.cumsum(n_dirs) - n_dirs, per) + dir_i]
+    rho_i, dir_i = np.divmod(within, dir_counts[reading])
+    rho = rho_i * step  # np.arange(0.0, until, step) holds exactly i * step
+    direction = dirs[np.repeat(np.cumsum(dir_counts) - dir_counts, per) + dir_i]
     points = origins[reading] + rho[:, None] * direction
     flat, keep = grid.locate(points)
     cells = grid.nx * grid.ny
