@@ -16,7 +16,7 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import NDArray
 
-from domain.grid import Flat, Grid, unique_cells
+from domain.grid import Flat, Grid, unique_cells, unique_inverse
 from domain.observation import RangeObservation
 from sim.robot import Array
 
@@ -51,6 +51,32 @@ def _spread(fov: float, n: int) -> tuple[float, ...]:
     return tuple(np.linspace(-fov / 2, fov / 2, n).tolist())
 
 
+def _fan(
+    readings: Sequence[RangeObservation], reach: Sequence[float], n_rho: Sequence[int], step: float
+) -> tuple[NDArray[np.intp], NDArray[np.intp], Array]:
+    """Sample points of several cones: for reading k, ``n_rho[k]`` ranges by ``cone_angles``
+    out to ``reach[k]``, range-major as ``sector_points`` orders them. Returns each sample's
+    reading, its range index within the reading, and the unit direction ``[N, 2]``."""
+    angles: list[float] = []
+    n_dirs = []
+    for obs, r in zip(readings, reach, strict=True):
+        n = 1 if obs.fov == 0 else math.ceil(obs.fov * r / step) + 1  # as cone_angles
+        if n > 1:
+            angles += [obs.angle + offset for offset in _spread(obs.fov, n)]
+        else:
+            angles.append(obs.angle)
+        n_dirs.append(n)
+    all_angles = np.array(angles)
+    dirs = np.stack([np.cos(all_angles), np.sin(all_angles)], axis=-1)  # [D, 2]
+    dir_counts, rho_counts = np.array(n_dirs), np.asarray(n_rho)
+    per = dir_counts * rho_counts
+    reading = np.repeat(np.arange(len(readings)), per)
+    within = np.arange(reading.size) - np.repeat(np.cumsum(per) - per, per)
+    rho_i, dir_i = np.divmod(within, dir_counts[reading])
+    direction = dirs[np.repeat(np.cumsum(dir_counts) - dir_counts, per) + dir_i]
+    return reading, rho_i, direction
+
+
 def swept_cells(
     grid: Grid, readings: Sequence[tuple[RangeObservation, float]], step: float
 ) -> tuple[NDArray[np.intp], Flat]:
@@ -59,35 +85,71 @@ def swept_cells(
 
     Returns parallel arrays (reading index, flat cell), sorted by reading then cell.
     """
-    angles: list[float] = []
-    n_dirs, n_rho, owners = [], [], []
-    for k, (obs, until) in enumerate(readings):
-        if until <= 0:
-            continue
-        n = 1 if obs.fov == 0 else math.ceil(obs.fov * until / step) + 1  # as cone_angles
-        if n > 1:
-            angles += [obs.angle + offset for offset in _spread(obs.fov, n)]
-        else:
-            angles.append(obs.angle)
-        n_dirs.append(n)
-        n_rho.append(math.ceil(until / step))  # len(np.arange(0.0, until, step))
-        owners.append(k)
+    owners = [k for k, (_, until) in enumerate(readings) if until > 0]
     if not owners:
         return np.zeros(0, dtype=np.intp), np.zeros(0, dtype=np.intp)
-    all_angles = np.array(angles)
-    dirs = np.stack([np.cos(all_angles), np.sin(all_angles)], axis=-1)  # [D, 2]
-    origins = np.array([readings[k][0].origin for k in owners], dtype=float)  # [K, 2]
-    dir_counts, rho_counts = np.array(n_dirs), np.array(n_rho)
-    # One sample per (reading, range step, direction), in sector_points' order within a reading.
-    per = dir_counts * rho_counts
-    reading = np.repeat(np.arange(len(owners)), per)
-    within = np.arange(reading.size) - np.repeat(np.cumsum(per) - per, per)
-    rho_i, dir_i = np.divmod(within, dir_counts[reading])
+    beams = [readings[k][0] for k in owners]
+    until = [readings[k][1] for k in owners]
+    n_rho = [math.ceil(u / step) for u in until]  # len(np.arange(0.0, until, step))
+    reading, rho_i, direction = _fan(beams, until, n_rho, step)
+    origins = np.array([obs.origin for obs in beams], dtype=float)  # [K, 2]
     rho = rho_i * step  # np.arange(0.0, until, step) holds exactly i * step
-    direction = dirs[np.repeat(np.cumsum(dir_counts) - dir_counts, per) + dir_i]
     points = origins[reading] + rho[:, None] * direction
     flat, keep = grid.locate(points)
     cells = grid.nx * grid.ny
     keys = unique_cells(reading[keep] * cells + flat[keep])
     which, cell = np.divmod(keys, cells)
     return np.asarray(owners, dtype=np.intp)[which], cell
+
+
+@functools.lru_cache(maxsize=64)
+def _likelihoods(n: int) -> tuple[Array, Array]:
+    """Standard scores ``z`` across ±2σ in ``n`` samples and their Gaussian weights."""
+    z = np.linspace(-2.0, 2.0, n) if n > 1 else np.zeros(1)
+    weights = np.exp(-0.5 * z * z)
+    z.flags.writeable = weights.flags.writeable = False
+    return z, weights
+
+
+def hit_points(obs: RangeObservation, distance: float, step: float) -> tuple[Array, Array]:
+    """Where the hit may be: sample points ``[N, 2]`` across the cone over ``distance`` ± 2σ of
+    the sensor's noise, with their Gaussian range likelihoods ``[N]``."""
+    n = 2 * math.ceil(2.0 * obs.noise_std / step) + 1
+    z, likelihood = _likelihoods(n)
+    rho = np.maximum(distance + obs.noise_std * z, 0.0)
+    dirs = cone_directions(obs, distance, step)
+    points = np.asarray(obs.origin) + rho[:, None, None] * dirs[None, :, :]
+    weights = np.broadcast_to(likelihood[:, None], points.shape[:2])
+    return points.reshape(-1, 2), weights.reshape(-1)
+
+
+def arc_cells(
+    grid: Grid, hits: Sequence[tuple[RangeObservation, float]], step: float
+) -> list[tuple[Flat, Array]]:
+    """For readings that hit (observation, measured range): the cells where each hit may lie
+    and their summed range likelihoods, as ``hit_points`` samples them, all in one pass."""
+    if not hits:
+        return []
+    beams = [obs for obs, _ in hits]
+    distance = np.array([d for _, d in hits])
+    sigma = np.array([obs.noise_std for obs in beams])
+    n_z = [2 * math.ceil(2.0 * obs.noise_std / step) + 1 for obs in beams]
+    reading, z_i, direction = _fan(beams, [d for _, d in hits], n_z, step)
+    z_all = np.concatenate([_likelihoods(n)[0] for n in n_z])
+    w_all = np.concatenate([_likelihoods(n)[1] for n in n_z])
+    first_z = np.cumsum(n_z) - n_z
+    z = z_all[first_z[reading] + z_i]
+    rho = np.maximum(distance[reading] + sigma[reading] * z, 0.0)
+    origins = np.array([obs.origin for obs in beams], dtype=float)
+    points = origins[reading] + rho[:, None] * direction
+    flat, keep = grid.locate(points)
+    cells = grid.nx * grid.ny
+    keys, inverse = unique_inverse(reading[keep] * cells + flat[keep])
+    # per key, the likelihoods summed in sample order (as one bincount per reading would)
+    sums = np.bincount(inverse, weights=w_all[first_z[reading] + z_i][keep], minlength=keys.size)
+    which, cell = np.divmod(keys, cells)
+    bounds = np.searchsorted(which, np.arange(len(hits) + 1))
+    return [
+        (cell[bounds[k] : bounds[k + 1]], np.asarray(sums[bounds[k] : bounds[k + 1]], np.float64))
+        for k in range(len(hits))
+    ]

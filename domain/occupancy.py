@@ -29,7 +29,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from domain.beams import cone_directions, swept_cells
+from domain.beams import arc_cells, swept_cells
 from domain.grid import Flat, Grid, unique_cells, unique_counts, unique_inverse
 from domain.observation import RangeObservation, range_observations
 from sim.robot import Array
@@ -85,18 +85,6 @@ class WorldModelSettings:
             raise ValueError("world model settings: sample_step above one cell would skip cells")
 
 
-def hit_points(obs: RangeObservation, distance: float, step: float) -> tuple[Array, Array]:
-    """Where the hit may be: sample points ``[N, 2]`` across the cone over ``distance`` ± 2σ of
-    the sensor's noise, with their Gaussian range likelihoods ``[N]``."""
-    n = 2 * math.ceil(2.0 * obs.noise_std / step) + 1
-    z = np.linspace(-2.0, 2.0, n) if n > 1 else np.zeros(1)
-    rho = np.maximum(distance + obs.noise_std * z, 0.0)
-    dirs = cone_directions(obs, distance, step)
-    points = np.asarray(obs.origin) + rho[:, None, None] * dirs[None, :, :]
-    weights = np.broadcast_to(np.exp(-0.5 * z * z)[:, None], points.shape[:2])
-    return points.reshape(-1, 2), weights.reshape(-1)
-
-
 @dataclass
 class _Updates:
     """One integration's cell updates, gathered before they are applied (clearing first)."""
@@ -135,12 +123,12 @@ class SensedLayer:
         cells_total = self.grid.nx * self.grid.ny
         hits: list[tuple[RangeObservation, Flat, Array]] = []
         hit_keys = []
-        for k, obs in enumerate(valid):
-            if obs.hit:
-                cells, likelihood = self._arc(obs, reach[k], step / 2)
-                hit_keys.append(k * cells_total + cells)  # a hit cell is not cleared by its beam
-                if cells.size:
-                    hits.append((obs, cells, likelihood))
+        which = [k for k, obs in enumerate(valid) if obs.hit]
+        arcs = arc_cells(self.grid, [(valid[k], reach[k]) for k in which], step / 2)
+        for k, (cells, likelihood) in zip(which, arcs, strict=True):
+            hit_keys.append(k * cells_total + cells)  # a hit cell is not cleared by its beam
+            if cells.size:
+                hits.append((valid[k], cells, likelihood))
         if hit_keys:
             cleared = ~np.isin(owner * cells_total + cell, np.concatenate(hit_keys))
             cell = cell[cleared]
@@ -152,14 +140,6 @@ class SensedLayer:
             self._share_hit(obs, cells, likelihood, known_clearance.reshape(-1), updates)
         touched.append(self._apply_hits(flat, updates))
         return self._threshold(unique_cells(np.concatenate(touched)))
-
-    def _arc(self, obs: RangeObservation, distance: float, step: float) -> tuple[Flat, Array]:
-        """The cells where a reading's hit may lie and their summed range likelihoods."""
-        points, likelihood = hit_points(obs, distance, step)
-        flat, keep = self.grid.locate(points)
-        cells, inverse = unique_inverse(flat[keep])
-        weights = np.bincount(inverse, weights=likelihood[keep], minlength=cells.size)
-        return cells, np.asarray(weights, dtype=np.float64)
 
     def _share_hit(
         self,
