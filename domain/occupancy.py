@@ -24,65 +24,17 @@ sensor layout (``sim.sensors``), a tracked pose and the readings by sensor name.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Iterable
 from dataclasses import dataclass, fields
 
 import numpy as np
-from numpy.typing import NDArray
 
-from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry, head_tip
-from sim.sensors import RangeSensor
-from sim.world import Bounds
+from domain.beams import arc_cells, swept_cells
+from domain.grid import Flat, Grid, unique_cells, unique_counts, unique_inverse
+from domain.observation import RangeObservation, range_observations
+from sim.robot import Array
 
-Flat = NDArray[np.intp]
-
-
-@dataclass(frozen=True)
-class RangeObservation:
-    """One range reading in the world frame, with the sensor's geometry."""
-
-    origin: tuple[float, float]  # sensor position, world frame (m)
-    angle: float  # cone axis direction, world frame (rad)
-    fov: float  # full cone width (rad); 0 = a single ray
-    max_range: float  # m
-    distance: float  # measured range (m); NaN = no reading (dropout): ignored
-    hit: bool  # False: "nothing within max_range" (distance == max_range)
-    noise_std: float = 0.0  # the sensor's stated noise (m)
-
-    def __post_init__(self) -> None:
-        values = (*self.origin, self.angle, self.fov, self.max_range, self.noise_std)
-        if not all(math.isfinite(v) for v in values):
-            raise ValueError(
-                "range observation: origin, angle, fov, max_range, noise must be finite"
-            )
-        if self.fov < 0 or self.fov >= math.pi or self.max_range <= 0 or self.noise_std < 0:
-            raise ValueError("range observation: need 0 <= fov < pi, max_range > 0, noise_std >= 0")
-        if not (math.isnan(self.distance) or self.distance >= 0):
-            raise ValueError("range observation: distance must be >= 0 or NaN")
-
-
-def range_observations(
-    sensors: Sequence[RangeSensor],
-    pose: Sequence[float] | Array,
-    ranges: Mapping[str, float],
-    geometry: RobotGeometry = DEFAULT_GEOMETRY,
-    no_hit_sigmas: float = 2.0,
-) -> list[RangeObservation]:
-    """The head's range readings (``sim.sensors`` layout) at tracked pose ``[x, y, ψ]`` as
-    observations. A missing or NaN reading is a dropout; one within ``no_hit_sigmas`` noise σ of
-    ``max_range`` means "nothing within range" (an empty reading is noisy too, then clipped)."""
-    p = np.asarray(pose, dtype=float)
-    origin = head_tip(p, geometry)
-    at = (float(origin[0]), float(origin[1]))
-    forward = float(p[2]) + math.pi  # the head leads: the body trails along ψ
-    out = []
-    for sensor in sensors:
-        d = float(ranges.get(sensor.name, math.nan))
-        fov = sensor.fov if sensor.rays > 1 else 0.0  # one ray reads along the axis only
-        hit = not math.isnan(d) and d < sensor.max_range - no_hit_sigmas * sensor.noise_std
-        angle = forward + sensor.angle
-        out.append(RangeObservation(at, angle, fov, sensor.max_range, d, hit, sensor.noise_std))
-    return out
+__all__ = ["Grid", "RangeObservation", "SensedLayer", "WorldModelSettings", "range_observations"]
 
 
 @dataclass(frozen=True)
@@ -133,91 +85,6 @@ class WorldModelSettings:
             raise ValueError("world model settings: sample_step above one cell would skip cells")
 
 
-class Grid:
-    """Cell geometry: cell ``[i, j]`` spans ``origin + ([i, i+1], [j, j+1]) * resolution``.
-
-    The grid covers the bounds; when they are not a whole number of cells the last row and column
-    overhang them.
-    """
-
-    def __init__(self, bounds: Bounds, resolution: float) -> None:
-        self.bounds = bounds
-        self.resolution = resolution
-        self.origin = (bounds.xmin, bounds.ymin)
-        self.nx = max(1, math.ceil((bounds.xmax - bounds.xmin) / resolution - 1e-9))
-        self.ny = max(1, math.ceil((bounds.ymax - bounds.ymin) / resolution - 1e-9))
-        self.xs = bounds.xmin + (np.arange(self.nx) + 0.5) * resolution  # cell centres
-        self.ys = bounds.ymin + (np.arange(self.ny) + 0.5) * resolution
-
-    @property
-    def shape(self) -> tuple[int, int]:
-        """``(nx, ny)``: cells along x, along y."""
-        return (self.nx, self.ny)
-
-    def cell_of(self, x: float, y: float) -> tuple[int, int]:
-        """The cell holding a world point (indices may fall outside the grid; see ``inside``)."""
-        res = self.resolution
-        return (math.floor((x - self.origin[0]) / res), math.floor((y - self.origin[1]) / res))
-
-    def inside(self, i: int, j: int) -> bool:
-        """Whether cell ``(i, j)`` is on the grid."""
-        return 0 <= i < self.nx and 0 <= j < self.ny
-
-    def centre_of(self, i: int, j: int) -> tuple[float, float]:
-        """The world centre of cell ``(i, j)``."""
-        res = self.resolution
-        return (self.origin[0] + (i + 0.5) * res, self.origin[1] + (j + 0.5) * res)
-
-    def centres(self, flat: Flat) -> Array:
-        """World centres ``[N, 2]`` of flat cell indices."""
-        i, j = np.divmod(flat, self.ny)
-        return np.stack([self.xs[i], self.ys[j]], axis=-1)
-
-    def flat_of(self, points: Array) -> Flat:
-        """Flat indices of the cells holding points ``[N, 2]``; points outside the grid dropped."""
-        flat, keep = self.locate(points)
-        out: Flat = flat[keep]
-        return out
-
-    def locate(self, points: Array) -> tuple[Flat, NDArray[np.bool_]]:
-        """Flat indices of the cells holding points ``[N, 2]`` and which points lie in the grid."""
-        res = self.resolution
-        i = np.floor((points[:, 0] - self.origin[0]) / res).astype(np.intp)
-        j = np.floor((points[:, 1] - self.origin[1]) / res).astype(np.intp)
-        keep = (i >= 0) & (i < self.nx) & (j >= 0) & (j < self.ny)
-        flat: Flat = i * self.ny + j
-        return flat, keep
-
-
-def sector_points(obs: RangeObservation, until: float, step: float) -> Array:
-    """Sample points ``[N, 2]`` filling the sensor's cone (or ray) from its origin to ``until``."""
-    if until <= 0:
-        return np.zeros((0, 2))
-    rho = np.arange(0.0, until, step)
-    dirs = _cone_directions(obs, until, step)
-    return (np.asarray(obs.origin) + rho[:, None, None] * dirs[None, :, :]).reshape(-1, 2)
-
-
-def hit_points(obs: RangeObservation, distance: float, step: float) -> tuple[Array, Array]:
-    """Where the hit may be: sample points ``[N, 2]`` across the cone over ``distance`` ± 2σ of
-    the sensor's noise, with their Gaussian range likelihoods ``[N]``."""
-    n = 2 * math.ceil(2.0 * obs.noise_std / step) + 1
-    z = np.linspace(-2.0, 2.0, n) if n > 1 else np.zeros(1)
-    rho = np.maximum(distance + obs.noise_std * z, 0.0)
-    dirs = _cone_directions(obs, distance, step)
-    points = np.asarray(obs.origin) + rho[:, None, None] * dirs[None, :, :]
-    weights = np.broadcast_to(np.exp(-0.5 * z * z)[:, None], points.shape[:2])
-    return points.reshape(-1, 2), weights.reshape(-1)
-
-
-def _cone_directions(obs: RangeObservation, reach: float, step: float) -> Array:
-    n = 1 if obs.fov == 0 else math.ceil(obs.fov * reach / step) + 1
-    angles = (
-        obs.angle + np.linspace(-obs.fov / 2, obs.fov / 2, n) if n > 1 else np.array([obs.angle])
-    )
-    return np.stack([np.cos(angles), np.sin(angles)], axis=-1)
-
-
 @dataclass
 class _Updates:
     """One integration's cell updates, gathered before they are applied (clearing first)."""
@@ -245,38 +112,34 @@ class SensedLayer:
 
         Returns the flat indices of cells that became occupied and of cells that stopped being so.
         """
-        updates = _Updates([], [], [], [], [])
+        s, res = self.settings, self.grid.resolution
+        step = s.sample_step * res
+        valid = [obs for obs in observations if not math.isnan(obs.distance)]  # NaN: dropout
+        reach = [min(obs.distance, obs.max_range) for obs in valid]
+        margins = [s.clear_sigmas * obs.noise_std + s.clear_margin for obs in valid]
+        owner, cell = swept_cells(
+            self.grid, [(o, d - m) for o, d, m in zip(valid, reach, margins, strict=True)], step
+        )
+        cells_total = self.grid.nx * self.grid.ny
         hits: list[tuple[RangeObservation, Flat, Array]] = []
-        for obs in observations:
-            if math.isnan(obs.distance):
-                continue  # dropout: no information
-            arc = self._beam(obs, updates)
-            if arc is not None:
-                hits.append((obs, *arc))
+        hit_keys = []
+        which = [k for k, obs in enumerate(valid) if obs.hit]
+        arcs = arc_cells(self.grid, [(valid[k], reach[k]) for k in which], step / 2)
+        for k, (cells, likelihood) in zip(which, arcs, strict=True):
+            hit_keys.append(k * cells_total + cells)  # a hit cell is not cleared by its beam
+            if cells.size:
+                hits.append((valid[k], cells, likelihood))
+        if hit_keys:
+            cleared = ~np.isin(owner * cells_total + cell, np.concatenate(hit_keys))
+            cell = cell[cleared]
+        updates = _Updates([cell], [], [], [], [])
         flat = self.log_odds.reshape(-1)
         touched = [self._apply_free(flat, updates.free)]
         # Hit shares use the cleared state: evidence goes to arc cells the beams left standing.
         for obs, cells, likelihood in hits:
             self._share_hit(obs, cells, likelihood, known_clearance.reshape(-1), updates)
         touched.append(self._apply_hits(flat, updates))
-        return self._threshold(np.unique(np.concatenate(touched)))
-
-    def _beam(self, obs: RangeObservation, updates: _Updates) -> tuple[Flat, Array] | None:
-        """Queue the cells the reading clears; return its hit cells and their likelihoods."""
-        s, res = self.settings, self.grid.resolution
-        step = s.sample_step * res
-        distance = min(obs.distance, obs.max_range)
-        until = distance - (s.clear_sigmas * obs.noise_std + s.clear_margin)
-        free = np.unique(self.grid.flat_of(sector_points(obs, until, step)))
-        if not obs.hit:
-            updates.free.append(free)
-            return None
-        points, likelihood = hit_points(obs, distance, step / 2)
-        flat, keep = self.grid.locate(points)
-        cells, inverse = np.unique(flat[keep], return_inverse=True)
-        weights = np.bincount(inverse, weights=likelihood[keep], minlength=cells.size)
-        updates.free.append(np.setdiff1d(free, cells, assume_unique=True))
-        return (cells, np.asarray(weights, dtype=np.float64)) if cells.size else None
+        return self._threshold(unique_cells(np.concatenate(touched)))
 
     def _share_hit(
         self,
@@ -310,7 +173,7 @@ class SensedLayer:
     def _apply_free(self, flat: Array, free: list[Flat]) -> Flat:
         if not free:
             return np.zeros(0, dtype=np.intp)
-        cells, n = np.unique(np.concatenate(free), return_counts=True)
+        cells, n = unique_counts(np.concatenate(free))
         s = self.settings
         flat[cells] = np.maximum(flat[cells] + n * s.log_odds_free, s.log_odds_min)
         return cells
@@ -338,6 +201,6 @@ def _summed(cells: list[Flat], gains: list[Array]) -> tuple[Flat, Array]:
     if not cells:
         return np.zeros(0, dtype=np.intp), np.zeros(0)
     all_cells = np.concatenate(cells)
-    unique, inverse = np.unique(all_cells, return_inverse=True)
+    unique, inverse = unique_inverse(all_cells)
     sums = np.bincount(inverse, weights=np.concatenate(gains), minlength=unique.size)
     return unique, np.asarray(sums, dtype=np.float64)

@@ -34,6 +34,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from domain.clearance import DistanceMap, clearance_map
+from domain.known import distance_block, obstacle_clear
 from domain.occupancy import (
     Grid,
     RangeObservation,
@@ -41,7 +43,7 @@ from domain.occupancy import (
     WorldModelSettings,
     range_observations,
 )
-from sim.obstacles import Circle, Obstacle
+from sim.obstacles import Obstacle
 from sim.robot import Array
 from sim.world import Bounds
 
@@ -68,6 +70,9 @@ class WorldModel:
         # Where a touched surface probably goes on (a bumper feels a short piece of a wall);
         # avoided while a way round exists, cleared by beams that see the cells free.
         self._suspected = np.zeros(self.grid.shape, dtype=bool)
+        # Clearance to each dynamic layer, kept current as cells come (``domain.clearance``).
+        self._sensed_map = DistanceMap(self.grid, settings.max_clearance)
+        self._contact_map = DistanceMap(self.grid, settings.max_clearance)
         self._cache: dict[str, Any] = {}
         self._cache_version = -1
         for obstacle in known:
@@ -80,6 +85,10 @@ class WorldModel:
         """Update the sensed layer with range readings; return the world centres of the cells
         that became occupied (NaN readings are dropouts and change nothing)."""
         became, ceased = self._sensed.integrate(observations, self._static)
+        if ceased.size:
+            self._sensed_map.reset()
+        else:
+            self._sensed_map.add(self._sensed.occupied, became)
         changed = bool(became.size or ceased.size)
         if np.any(self._suspected):
             seen_free = self._suspected & (self._sensed.log_odds <= self.settings.suspect_cleared)
@@ -105,8 +114,11 @@ class WorldModel:
         if grid.inside(i, j):
             disc[i - i0, j - j0] = True
         window = self._contact[i0:i1, j0:j1]
-        if np.any(disc & ~window):
+        new = disc & ~window
+        if np.any(new):
             window |= disc
+            ii, jj = np.nonzero(new)
+            self._contact_map.add(self._contact, (ii + i0) * grid.ny + (jj + j0))
             self.version += 1
 
     def add_suspected(self, points: Iterable[tuple[float, float]]) -> None:
@@ -130,7 +142,7 @@ class WorldModel:
     def add_known(self, obstacle: Obstacle) -> None:
         """Add a known obstacle to the static layer (exact distances within ``max_clearance``)."""
         self._known.append(obstacle)
-        block = _distance_block(obstacle, self.grid, self.settings.max_clearance)
+        block = distance_block(obstacle, self.grid, self.settings.max_clearance)
         if block is None:
             return
         (i0, i1, j0, j1), dist = block
@@ -211,9 +223,13 @@ class WorldModel:
             if grow_contact == inflation and not suspect:
                 grown = np.maximum(self._dynamic() - inflation, 0.0)
             else:
-                touched_cells = self._contact | self._suspected if suspect else self._contact
-                sensed = np.maximum(self._distance_to(self._sensed.occupied) - inflation, 0.0)
-                touched = np.maximum(self._distance_to(touched_cells) - grow_contact, 0.0)
+                sensed = np.maximum(self._sensed_map.get(self._sensed.occupied) - inflation, 0.0)
+                if suspect:  # suspected cells come and go with beams: transformed afresh
+                    cap = self.settings.max_clearance
+                    near = clearance_map(self._contact | self._suspected, self.grid.resolution, cap)
+                else:
+                    near = self._contact_map.get(self._contact)
+                touched = np.maximum(near - grow_contact, 0.0)
                 grown = np.minimum(sensed, touched)
             grid = self._store(key, np.minimum(self._static, grown))
         pts = np.asarray(points, dtype=float)
@@ -324,16 +340,6 @@ class WorldModel:
         self._known_distance = np.full(self.grid.shape, cap)  # to known obstacles only
         self._static = np.clip(walls, 0.0, cap)  # walls and known obstacles
 
-    def _distance_to(self, occupied: NDArray[np.bool_]) -> Array:
-        """Clearance to the given cells (distance between centres minus half a cell)."""
-        cap = self.settings.max_clearance
-        if not np.any(occupied):
-            return np.full(self.grid.shape, cap)
-        res = self.grid.resolution
-        dist = ndimage.distance_transform_edt(~occupied) * res - 0.5 * res
-        out: Array = np.clip(dist, 0.0, cap)
-        return out
-
     def _has_dynamic(self) -> bool:
         return bool(np.any(self._sensed.occupied) or np.any(self._contact))
 
@@ -342,14 +348,11 @@ class WorldModel:
         (cached until ``version`` changes)."""
         cached = self._cached("dynamic")
         if cached is None:
-            cap = self.settings.max_clearance
-            if self._has_dynamic():
-                free = ~(self._sensed.occupied | self._contact)
-                res = self.grid.resolution
-                dist = ndimage.distance_transform_edt(free) * res - 0.5 * res
-                cached = self._store("dynamic", np.clip(dist, 0.0, cap))
-            else:
-                cached = self._store("dynamic", np.full(self.grid.shape, cap))
+            # The distance to a union of cells is the smaller of the distances to its parts.
+            sensed = self._sensed_map.get(self._sensed.occupied)
+            cached = self._store(
+                "dynamic", np.minimum(sensed, self._contact_map.get(self._contact))
+            )
         out: Array = cached
         return out
 
@@ -380,7 +383,7 @@ class WorldModel:
         if unsure.size:
             sub = np.ones(unsure.size, dtype=bool)
             for obstacle in self._known:
-                _obstacle_clear(obstacle, a[unsure], b[unsure], need, sub)
+                obstacle_clear(obstacle, a[unsure], b[unsure], need, sub)
             ok[unsure] = sub
 
     def _interpolate(self, grid: Array, pts: Array) -> Array:
@@ -411,48 +414,3 @@ class WorldModel:
         value.flags.writeable = False  # shared with callers until the next change
         self._cache[key] = value
         return value
-
-
-def _distance_block(
-    obstacle: Obstacle, grid: Grid, cap: float
-) -> tuple[tuple[int, int, int, int], Array] | None:
-    """Exact distances (0 inside) from the cell centres within ``cap`` of the obstacle's bounding
-    box to the obstacle, capped at ``cap``; ``None`` if no centre is that close."""
-    x0, y0, x1, y1 = obstacle.bounding_box()
-    i0, i1 = np.searchsorted(grid.xs, [x0 - cap, x1 + cap], side="left")
-    j0, j1 = np.searchsorted(grid.ys, [y0 - cap, y1 + cap], side="left")
-    if i0 >= i1 or j0 >= j1:
-        return None
-    x, y = np.meshgrid(grid.xs[i0:i1], grid.ys[j0:j1], indexing="ij")
-    pts = np.stack([x, y], axis=-1)
-    if isinstance(obstacle, Circle):
-        dist = np.hypot(x - obstacle.x, y - obstacle.y) - obstacle.radius
-    else:
-        ea, eb = obstacle.edges
-        dist = _point_edges_distance(pts, ea, eb)
-        dist = np.where(obstacle.contains(pts), 0.0, dist)
-    return (int(i0), int(i1), int(j0), int(j1)), np.clip(dist, 0.0, cap)
-
-
-def _point_edges_distance(pts: Array, ea: Array, eb: Array) -> Array:
-    """Distance from points ``[..., 2]`` to the nearest of the edges ``ea-eb`` ``[E, 2]``."""
-    best = np.full(pts.shape[:-1], np.inf)
-    for a, b in zip(ea, eb, strict=True):  # a loop over edges, each vectorised over cells
-        ab = b - a
-        s = np.clip(((pts - a) @ ab) / max(float(ab @ ab), 1e-12), 0.0, 1.0)
-        np.minimum(best, np.linalg.norm(pts - a - s[..., None] * ab, axis=-1), out=best)
-    return best
-
-
-def _obstacle_clear(
-    obstacle: Obstacle, a: Array, b: Array, need: Array, ok: NDArray[np.bool_]
-) -> None:
-    """Clear ``ok`` (``[B]``) where a capsule of ``a-b`` ``[B, C, 2]`` comes within ``need`` of
-    the obstacle; only capsules whose bounding boxes come near it are measured."""
-    x0, y0, x1, y1 = obstacle.bounding_box()
-    lo, hi = np.minimum(a, b) - need[:, None], np.maximum(a, b) + need[:, None]
-    near = (lo[..., 0] <= x1) & (hi[..., 0] >= x0) & (lo[..., 1] <= y1) & (hi[..., 1] >= y0)
-    rows = np.flatnonzero(np.any(near, axis=-1) & ok)
-    if rows.size:
-        gap = obstacle.segment_clearance(a[rows], b[rows])  # [R, C]
-        ok[rows[np.any(gap < need, axis=-1)]] = False

@@ -86,6 +86,9 @@ class SensorSuite:
     joint_noise_std: float = 0.0
     geometry: RobotGeometry = DEFAULT_GEOMETRY
     rng: np.random.Generator = field(default_factory=lambda: np.random.default_rng(0))
+    _rays: tuple[tuple[RangeSensor, ...], Array, list[int], float] | None = field(
+        default=None, init=False, repr=False, compare=False
+    )
 
     def __post_init__(self) -> None:
         names = [s.name for s in self.range_sensors]
@@ -97,6 +100,19 @@ class SensorSuite:
     def seed(self, seed: int | None) -> None:
         self.rng = np.random.default_rng(seed)
 
+    def _layout(self) -> tuple[Array, list[int], float]:
+        """Every ray's angle from the forward direction, where each sensor's rays start in that
+        list, and the longest range: fixed by the sensors, so built once per sensor tuple."""
+        cached = self._rays
+        if cached is None or cached[0] is not self.range_sensors:
+            angles = [s.ray_angles() for s in self.range_sensors]
+            offsets = np.cumsum([0, *(a.size for a in angles)]).tolist()
+            reach = max((s.max_range for s in self.range_sensors), default=0.0)
+            flat = np.concatenate(angles) if angles else np.zeros(0)
+            cached = (self.range_sensors, flat, offsets, reach)
+            self._rays = cached
+        return cached[1], cached[2], cached[3]
+
     def read(
         self, world: World, pose: Array, joints: Array, dropped: frozenset[str] = frozenset()
     ) -> SensorReadings:
@@ -105,26 +121,22 @@ class SensorSuite:
         ranges: dict[str, float] = {}
         hits: dict[str, int] = {}
         # One ray cast for every ray of every sensor (capped per sensor afterwards).
-        angles = [forward + s.ray_angles() for s in self.range_sensors]
-        counts = [a.size for a in angles]
-        reach = max((s.max_range for s in self.range_sensors), default=0.0)
-        all_dist, all_what = world.ray_cast(
-            origin, unit_vectors(np.concatenate(angles) if angles else np.zeros(0)), reach
-        )
-        offsets = np.cumsum([0, *counts])
+        offsets, starts, reach = self._layout()
+        all_dist, all_what = world.ray_cast(origin, unit_vectors(forward + offsets), reach)
+        dists, whats = all_dist.tolist(), all_what.tolist()  # a few floats: plain Python is faster
         for k, sensor in enumerate(self.range_sensors):
-            dist = all_dist[offsets[k] : offsets[k + 1]]
-            what = np.where(dist <= sensor.max_range, all_what[offsets[k] : offsets[k + 1]], -2)
-            dist = np.minimum(dist, sensor.max_range)
-            i = int(np.argmin(dist))
-            value = float(dist[i])
-            if sensor.noise_std > 0 and what[i] != NOTHING:
+            cap = sensor.max_range
+            rays = range(starts[k], starts[k + 1])
+            i = min(rays, key=lambda r: min(dists[r], cap))  # the first nearest, as argmin
+            value = min(dists[i], cap)
+            what = whats[i] if dists[i] <= cap else NOTHING
+            if sensor.noise_std > 0 and what != NOTHING:
                 # Noise only on real echoes: "nothing within range" reads exactly max_range, so
                 # an empty view never invents an obstacle (a noisy echo stays below max_range).
                 noisy = value + self.rng.normal(0, sensor.noise_std)
-                value = float(np.clip(noisy, 0, np.nextafter(sensor.max_range, 0)))
+                value = float(np.clip(noisy, 0, np.nextafter(cap, 0)))
             ranges[sensor.name] = math.nan if sensor.name in dropped else value
-            hits[sensor.name] = int(what[i])
+            hits[sensor.name] = int(what)
         measured = np.array(joints, dtype=float)
         if self.joint_noise_std > 0:
             measured = measured + self.rng.normal(0, self.joint_noise_std, size=3)

@@ -26,7 +26,7 @@ from sim.robot import (
 )
 from sim.rollout import JOINT_MODES, JointMode
 from sim.sensors import SensorReadings, SensorSuite
-from sim.world import Contact, World, footprint
+from sim.world import Contact, World, footprint, footprint_of
 
 
 @dataclass(frozen=True)
@@ -85,6 +85,8 @@ class Simulator:
         self.pose = p.copy()
         self.joints = clamp_joints(j, self.geometry)[0]
         self.forced: Array | None = None
+        self._last_twist: tuple[bytes, Array] | None = None
+        self._bodies: list[tuple[bytes, tuple[Array, Array]]] = []
         self.dropouts: list[SensorDropout] = []
         self.pending = list(self.events)
         self.collisions = 0
@@ -140,7 +142,7 @@ class Simulator:
             raise ValueError("control: the stepping simulator takes one control (K = 1)")
         phi, dphi = self._commanded_joints(control, self.t)
         phi = clamp_joints(phi, self.geometry)
-        twist = body_twist(control.theta[0], phi, dphi, self.geometry)
+        twist = self._twist(control.theta[0], phi, dphi)
         velocity = np.append(rotate(twist[:2], np.array(self.pose[2])), twist[2])
         target_pose = self.pose + self.dt * velocity
         target_joints = clamp_joints(
@@ -159,18 +161,36 @@ class Simulator:
             self.t, self.pose.copy(), self.joints.copy(), self.read(), contact, tuple(records)
         )
 
+    def _twist(self, theta: Array, phi: Array, dphi: Array | None) -> Array:
+        """``body_twist``, remembered for the last screw speeds and shape: a primitive holds
+        both for many steps (the same inputs give the same twist)."""
+        if dphi is not None:
+            return body_twist(theta, phi, dphi, self.geometry)
+        key = theta.tobytes() + phi.tobytes()
+        if self._last_twist is None or self._last_twist[0] != key:
+            self._last_twist = (key, body_twist(theta, phi, None, self.geometry))
+        return self._last_twist[1]
+
+    def _body(self, pose: Array, phi: Array) -> tuple[Array, Array]:
+        """Joint positions and head tip at (pose, phi), the last two answers remembered: a step
+        usually starts where the last one ended."""
+        key = pose.tobytes() + phi.tobytes()
+        for known, value in self._bodies:
+            if known == key:
+                return value
+        value = (joint_positions(pose, phi, self.geometry), head_tip(pose, self.geometry))
+        self._bodies = [(key, value), *self._bodies[:1]]
+        return value
+
     def _sweep(self, phi0: Array, pose1: Array, phi1: Array) -> Contact | None:
         """Move towards (pose1, phi1) in checked sub-steps; stop before the first contact."""
         pose0 = self.pose
-        points0 = np.vstack(
-            [joint_positions(pose0, phi0, self.geometry), head_tip(pose0, self.geometry)]
-        )
-        points1 = np.vstack(
-            [joint_positions(pose1, phi1, self.geometry), head_tip(pose1, self.geometry)]
-        )
+        joints0, tip0 = self._body(pose0, phi0)
+        points0 = np.vstack([joints0, tip0])
+        points1 = np.vstack(self._body(pose1, phi1))
         # Chords under-estimate arcs slightly when the body turns; 5 % covers |Δψ| up to ~0.6 rad.
         travel = 1.05 * float(np.max(np.linalg.norm(points1 - points0, axis=-1)))
-        if travel <= self.world.gap(footprint(pose0, phi0, self.geometry)):
+        if self.world.free_within(footprint_of(joints0, tip0, self.geometry), travel):
             self.pose, self.joints = pose1, phi1
             return None
         n = max(1, math.ceil(travel / self.check_step))

@@ -10,6 +10,7 @@ import numpy as np
 
 from sim.obstacles import Obstacle, ray_segment_hits
 from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry, head_tip, joint_positions
+from sim.scene import Scene
 
 WALL = -1  # obstacle index reported for the arena bounds
 
@@ -70,7 +71,12 @@ def _point_distance(obstacle: Obstacle) -> Callable[[Array], Array]:
 def footprint(pose: Array, joints: Array, geometry: RobotGeometry = DEFAULT_GEOMETRY) -> Footprint:
     """The head capsule and the four unit capsules at poses ``[..., 3]`` with ``joints`` ``[3]``."""
     js = joint_positions(pose, joints, geometry)  # [..., 5, 2]
-    tip = head_tip(pose, geometry)
+    return footprint_of(js, head_tip(pose, geometry), geometry)
+
+
+def footprint_of(js: Array, tip: Array, geometry: RobotGeometry = DEFAULT_GEOMETRY) -> Footprint:
+    """The footprint from joint positions ``[..., 5, 2]`` and the head tip ``[..., 2]`` already
+    computed (the simulator has them at hand)."""
     starts = np.concatenate([tip[..., None, :], js[..., :-1, :]], axis=-2)
     ends = np.concatenate([js[..., :1, :], js[..., 1:, :]], axis=-2)
     radii = np.array([geometry.head_radius] + [geometry.unit_radius] * 4)
@@ -96,8 +102,44 @@ class Contact:
 
 @dataclass(frozen=True)
 class World:
+    """Bounds and obstacles; collision and ray queries run over all obstacles at once (``Scene``)
+    and, for the footprint, over only those whose bounding boxes come near it."""
+
     bounds: Bounds = field(default_factory=Bounds)
     obstacles: tuple[Obstacle, ...] = ()
+    _scenes: dict[tuple[int, ...], Scene] = field(
+        init=False, repr=False, compare=False, default_factory=dict
+    )
+    _walls: tuple[Array, Array] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        corners = self.bounds.corners()
+        object.__setattr__(self, "_walls", (corners, np.roll(corners, -1, axis=0)))
+
+    def _scene(self, indices: tuple[int, ...]) -> Scene:
+        """The packed arrays of the obstacles at ``indices`` (cached: a mission meets few sets)."""
+        scene = self._scenes.get(indices)
+        if scene is None:
+            scene = Scene([self.obstacles[i] for i in indices])
+            self._scenes[indices] = scene
+        return scene
+
+    def _near(self, fp: Footprint, margin: float) -> tuple[int, ...]:
+        """Obstacles whose bounding boxes come within ``margin`` of the footprint's capsule axes;
+        any other obstacle is further than ``margin`` from every axis point."""
+        if not self.obstacles:
+            return ()
+        everything = self._scene(tuple(range(len(self.obstacles))))
+        ends = np.concatenate([fp.starts, fp.ends])
+        lo, hi = ends.min(axis=0), ends.max(axis=0)
+        return tuple(int(i) for i in everything.near(lo, hi, margin))
+
+    def _near_point(self, point: Array, reach: float) -> tuple[int, ...]:
+        """Obstacles whose bounding boxes come within ``reach`` of ``point`` (box distance)."""
+        if not self.obstacles:
+            return ()
+        everything = self._scene(tuple(range(len(self.obstacles))))
+        return tuple(int(i) for i in everything.near(point, point, reach))
 
     def contact(self, fp: Footprint) -> Contact | None:
         """The first obstacle or wall the footprint overlaps, or ``None`` when it is free."""
@@ -106,12 +148,16 @@ class World:
         if np.any(wall):
             part = int(np.argmax(wall)) % len(fp.radii)
             return Contact(WALL, part, self._side(fp, part, self.bounds.wall_clearance))
-        for index, obstacle in enumerate(self.obstacles):
-            hit = obstacle.segment_clearance(fp.starts, fp.ends) < fp.radii
-            if np.any(hit):
-                part = int(np.argmax(hit))
-                return Contact(index, part, self._side(fp, part, _point_distance(obstacle)))
-        return None
+        near = self._near(fp, float(np.max(fp.radii)))
+        if not near:
+            return None
+        hit = self._scene(near).segment_clearance(fp.starts, fp.ends) < fp.radii[:, None]
+        touched = np.any(hit, axis=0)  # [obstacles near], in the obstacles' order
+        if not np.any(touched):
+            return None
+        column = int(np.argmax(touched))
+        index, part = near[column], int(np.argmax(hit[:, column]))
+        return Contact(index, part, self._side(fp, part, _point_distance(self.obstacles[index])))
 
     @staticmethod
     def _side(fp: Footprint, part: int, distance: Callable[[Array], Array]) -> str:
@@ -135,20 +181,46 @@ class World:
     def ray_cast(self, origin: Array, dirs: Array, max_range: float) -> tuple[Array, Array]:
         """First hits of rays ``[R, 2]`` from ``origin``: distances (capped at ``max_range``) and
         what they hit (obstacle index, ``WALL``, or ``-2`` for nothing within range)."""
-        corners = self.bounds.corners()
-        hits = [ray_segment_hits(origin, dirs, corners, np.roll(corners, -1, axis=0)).min(axis=-1)]
-        hits += [obstacle.ray_cast(origin, dirs) for obstacle in self.obstacles]
-        table = np.stack(hits, axis=-1)  # [R, 1 + n_obstacles]
+        corners, following = self._walls
+        # Walls further than max_range (perpendicular distance) are left out the same way.
+        b = self.bounds
+        ox, oy = float(origin[0]), float(origin[1])
+        reach = (oy - b.ymin, b.xmax - ox, b.ymax - oy, ox - b.xmin)  # the four edges in order
+        close = [k for k in range(4) if not reach[k] > max_range]
+        if close:
+            walls = ray_segment_hits(origin, dirs, corners[close], following[close]).min(axis=-1)
+        else:
+            walls = np.full(dirs.shape[0], np.inf)
+        # Obstacles whose bounding boxes lie beyond max_range cannot change the capped answer:
+        # they would be hit (if at all) beyond it, which reads as nothing within range.
+        near = self._near_point(origin, max_range)
+        if near:
+            table = np.concatenate([walls[:, None], self._scene(near).ray_cast(origin, dirs)], -1)
+        else:
+            table = walls[:, None]  # [R, 1 + obstacles near]
         best = np.argmin(table, axis=-1)
         dist = table[np.arange(dirs.shape[0]), best]
-        what = np.where(best == 0, WALL, best - 1)
+        what = np.where(best == 0, WALL, np.asarray((WALL, *near))[best])
         what = np.where(dist <= max_range, what, -2)
         return np.minimum(dist, max_range), what
 
     def gap(self, fp: Footprint) -> float:
         """Smallest gap between a footprint and any obstacle or wall (0 if touching)."""
         ends = np.concatenate([fp.starts, fp.ends])
-        gap = float(np.min(self.bounds.wall_clearance(ends) - np.tile(fp.radii, 2)))
-        for obstacle in self.obstacles:
-            gap = min(gap, float(np.min(obstacle.segment_clearance(fp.starts, fp.ends) - fp.radii)))
+        gap = float(np.min(self.bounds.wall_clearance(ends) - np.concatenate([fp.radii, fp.radii])))
+        if self.obstacles:
+            scene = self._scene(tuple(range(len(self.obstacles))))
+            clearance = scene.segment_clearance(fp.starts, fp.ends) - fp.radii[:, None]
+            gap = min(gap, float(np.min(clearance)))
         return max(gap, 0.0)
+
+    def free_within(self, fp: Footprint, distance: float) -> bool:
+        """Whether ``distance <= gap(fp)``, measuring only obstacles that could decide it
+        (those whose bounding boxes come within ``distance`` + the largest radius)."""
+        ends = np.concatenate([fp.starts, fp.ends])
+        gap = float(np.min(self.bounds.wall_clearance(ends) - np.concatenate([fp.radii, fp.radii])))
+        near = self._near(fp, distance + float(np.max(fp.radii)))
+        if near:
+            clearance = self._scene(near).segment_clearance(fp.starts, fp.ends)
+            gap = min(gap, float(np.min(clearance - fp.radii[:, None])))
+        return distance <= max(gap, 0.0)

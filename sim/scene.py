@@ -1,0 +1,123 @@
+"""A world's obstacles packed once into arrays, for collision and ray queries over all of them at once.
+
+The simulator asks, every step, how far the body's five capsules are from every obstacle and
+where a dozen rays first hit; answered obstacle by obstacle that is a few dozen numpy calls on
+2-4-element arrays per obstacle. ``Scene`` stacks the polygons' edges (with each polygon's first
+edge as a ``reduceat`` offset) and the circles' centres and radii once, so each query is a
+fixed number of numpy calls whatever the obstacle count. Each answer equals, value for value,
+what ``Circle`` / ``Polygon`` compute one at a time (the same formulas, element by element);
+``tests/sim/test_scene.py`` holds them to it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sim.obstacles import (
+    Circle,
+    Obstacle,
+    point_segment_distance,
+    ray_segment_hits,
+    segments_intersect,
+)
+from sim.robot import Array
+
+Index = NDArray[np.intp]
+
+
+class Scene:
+    """Static arrays of a fixed set of obstacles; every query returns one column per obstacle,
+    in the obstacles' order."""
+
+    def __init__(self, obstacles: Sequence[Obstacle]) -> None:
+        self.count = len(obstacles)
+        circles = [(i, o) for i, o in enumerate(obstacles) if isinstance(o, Circle)]
+        polygons = [(i, o) for i, o in enumerate(obstacles) if not isinstance(o, Circle)]
+        self.circle_index: Index = np.array([i for i, _ in circles], dtype=np.intp)
+        self.centres = np.array([o.centre for _, o in circles]).reshape(-1, 2)
+        self.radii = np.array([o.radius for _, o in circles], dtype=float)
+        self.polygon_index: Index = np.array([i for i, _ in polygons], dtype=np.intp)
+        edges = [o.edges for _, o in polygons]
+        self.edge_a = np.concatenate([np.zeros((0, 2)), *(a for a, _ in edges)])
+        self.edge_b = np.concatenate([np.zeros((0, 2)), *(b for _, b in edges)])
+        sizes = [len(a) for a, _ in edges]
+        self.first_edge: Index = np.cumsum([0, *sizes[:-1]]).astype(np.intp)
+        boxes = [o.bounding_box() for o in obstacles]
+        self.boxes = np.array(boxes, dtype=float).reshape(-1, 4)  # [N, (x0, y0, x1, y1)]
+
+    def segment_clearance(self, a: Array, b: Array) -> Array:
+        """Clearance ``[C, N]`` of segments ``a-b`` ``[C, 2]`` to each obstacle (0 when touching or
+        inside), as ``obstacle.segment_clearance`` gives it column by column."""
+        out = np.empty((a.shape[0], self.count))
+        if self.circle_index.size:
+            near = point_segment_distance(self.centres[:, None, :], a, b)  # [Nc, C]
+            out[:, self.circle_index] = np.maximum(near - self.radii[:, None], 0.0).T
+        if self.polygon_index.size:
+            d = self._segment_distance(a, b)  # [C, E]
+            nearest = np.minimum.reduceat(d, self.first_edge, axis=1)  # [C, Np]
+            inside = self.contains_polygon(np.concatenate([a, b]))  # [2C, Np]
+            touching = inside[: a.shape[0]] | inside[a.shape[0] :]
+            out[:, self.polygon_index] = np.where(touching, 0.0, nearest)
+        return out
+
+    def _segment_distance(self, a: Array, b: Array) -> Array:
+        """``segment_segment_distance`` of every segment ``a-b`` ``[C, 2]`` to every edge, ``[C, E]``:
+        its four point-segment distances as two calls on stacked ends (the same values, since a
+        minimum is exact whatever the order)."""
+        ea, eb = self.edge_a, self.edge_b
+        ends = np.stack([a, b])[:, :, None, :]  # [2, C, 1, 2]: segment ends against edges
+        corners = np.stack([ea, eb])[:, None, :, :]  # [2, 1, E, 2]: edge ends against segments
+        to_edges = point_segment_distance(ends, ea, eb).min(axis=0)
+        to_segments = point_segment_distance(corners, a[:, None, :], b[:, None, :]).min(axis=0)
+        dist = np.minimum(to_edges, to_segments)
+        crossing = segments_intersect(a[:, None, :], b[:, None, :], ea, eb)
+        return np.where(crossing, 0.0, dist)
+
+    def contains_polygon(self, points: Array) -> NDArray[np.bool_]:
+        """Whether points ``[P, 2]`` lie inside each polygon (even-odd rule), ``[P, Np]``."""
+        ea, eb = self.edge_a, self.edge_b
+        px, py = points[:, None, 0], points[:, None, 1]
+        ax, ay, bx, by = ea[:, 0], ea[:, 1], eb[:, 0], eb[:, 1]
+        straddle = (ay > py) != (by > py)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x_cross = ax + (py - ay) * (bx - ax) / (by - ay)
+        crossed = (straddle & (px < x_cross)).astype(np.intp)
+        crossings = np.add.reduceat(crossed, self.first_edge, axis=1)
+        return np.asarray(crossings % 2 == 1)
+
+    def ray_cast(self, origin: Array, dirs: Array) -> Array:
+        """Distance along unit rays ``dirs`` ``[R, 2]`` from ``origin`` to each obstacle (inf if
+        missed, 0 from inside), ``[R, N]``, as ``obstacle.ray_cast`` gives it."""
+        out = np.empty((dirs.shape[0], self.count))
+        if self.circle_index.size:
+            rel = origin - self.centres  # [Nc, 2]
+            # One small product per circle: a batched product may round differently, and the
+            # readings must stay those of ``Circle.ray_cast``.
+            bq = np.stack([dirs @ r for r in rel], axis=-1)  # [R, Nc]
+            cq = np.array([r @ r for r in rel]) - self.radii**2
+            disc = bq * bq - cq
+            root = np.sqrt(np.maximum(disc, 0.0))
+            near, far = -bq - root, -bq + root
+            t = np.where(near >= 0, near, np.where(far >= 0, 0.0, np.inf))
+            out[:, self.circle_index] = np.where(disc >= 0, t, np.inf)
+        if self.polygon_index.size:
+            hits = ray_segment_hits(origin, dirs, self.edge_a, self.edge_b)  # [R, E]
+            first = np.minimum.reduceat(hits, self.first_edge, axis=1)
+            inside = self.contains_polygon(origin[None, :])[0]  # [Np]
+            out[:, self.polygon_index] = np.where(inside, 0.0, first)
+        return out
+
+    def near(self, lo: Array, hi: Array, margin: float) -> Index:
+        """Indices of obstacles whose bounding boxes come within ``margin`` of the box
+        ``lo``-``hi`` (a cheap test: the rest cannot be closer than ``margin``)."""
+        b = self.boxes
+        close = (
+            (b[:, 0] <= hi[0] + margin)
+            & (b[:, 2] >= lo[0] - margin)
+            & (b[:, 1] <= hi[1] + margin)
+            & (b[:, 3] >= lo[1] - margin)
+        )
+        return np.flatnonzero(close)
