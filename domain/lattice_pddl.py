@@ -3,7 +3,8 @@
 ``(move ?a ?b ?p)`` takes the robot from lattice state ``?a`` to ``?b`` by library primitive
 ``?p`` where ``(succ ?a ?b ?p)`` holds (the primitive's swept footprint is free from ``?a``);
 ``(visit ?s ?g)`` marks goal ``?g`` visited where ``(near ?s ?g)`` (the tracked point is on
-it). A problem lists the part of the lattice a search generated: every state it expanded with
+it); ``(reshape ?a ?b)`` changes the body from shape ``?a`` to ``?b`` in place where
+``(reshapes ?a ?b)`` (the sweep is free; a problem whose plan needs it asks for ``(body ?b)``). A problem lists the part of the lattice a search generated: every state it expanded with
 all its successors, so any planner that solves it finds a plan that is valid on the lattice.
 Type and predicate names are distinct (unified-planning rejects a name used as both).
 """
@@ -12,16 +13,18 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
-from domain.lattice_task import LatticeTask, state_name
+from domain.lattice_task import LatticeTask, primitive_name, state_name
 from domain.pddl import Action, Domain, Problem
 
 
 def lattice_domain() -> Domain:
     return Domain(
         "screwsnake-lattice",
-        ["lstate", "primitive", "goalpoint"],
+        ["lstate", "primitive", "goalpoint", "bodyshape"],
         [
             "(at ?s - lstate)",
+            "(body ?b - bodyshape)",
+            "(reshapes ?a - bodyshape ?b - bodyshape)",
             "(succ ?a - lstate ?b - lstate ?p - primitive)",
             "(near ?s - lstate ?g - goalpoint)",
             "(visited ?g - goalpoint)",
@@ -40,6 +43,13 @@ def lattice_domain() -> Domain:
                 ["(at ?s)", "(near ?s ?g)"],
                 ["(visited ?g)"],
             ),
+            Action(
+                "reshape",
+                [("?a", "bodyshape"), ("?b", "bodyshape")],
+                ["(body ?a)", "(reshapes ?a ?b)"],
+                ["(body ?b)"],
+                ["(body ?a)"],
+            ),
         ],
         comment=(
             "screwsnake lattice navigation: states are (centroid cell, orientation, shape); each\n"
@@ -48,9 +58,13 @@ def lattice_domain() -> Domain:
     )
 
 
-def lattice_problem(legs: LatticeTask | Sequence[LatticeTask], shape: str) -> Problem:
+def lattice_problem(
+    legs: LatticeTask | Sequence[LatticeTask], shape: str, reshaped_from: str | None = None
+) -> Problem:
     """The generated part of the lattice as a PDDL problem: one leg's task, or every leg of a
-    tour (their lattices merged, one goal point per leg, all to be visited).
+    tour (their lattices merged, one goal point per leg, all to be visited). ``shape`` is the
+    lattice's body shape; ``reshaped_from`` the shape the body has before the plan's first
+    action changes it (the problem then starts in that body and asks for ``shape``).
 
     A tour's goals are a conjunction, so the problem does not state an order: a peer planner
     may visit ordered goals in another order (the plan is still valid on the lattice).
@@ -70,7 +84,11 @@ def lattice_problem(legs: LatticeTask | Sequence[LatticeTask], shape: str) -> Pr
         near.update((s, task.goal_index) for s in task.near)
     states.update(b for _, b, _ in edges)
     states.update(s for s, _ in near)
-    init = [f"(at {state_name(first.start_number)})"]
+    body = primitive_name(shape)
+    before = primitive_name(reshaped_from) if reshaped_from else body
+    init = [f"(at {state_name(first.start_number)})", f"(body {before})"]
+    if before != body:
+        init.append(f"(reshapes {before} {body})")
     init += [f"(succ {state_name(a)} {state_name(b)} {p})" for a, b, p in sorted(edges)]
     init += [f"(near {state_name(s)} g{g})" for s, g in sorted(near)]
     goals = [f"g{t.goal_index}" for t in tasks]
@@ -90,6 +108,7 @@ def lattice_problem(legs: LatticeTask | Sequence[LatticeTask], shape: str) -> Pr
         "lstate": [state_name(s) for s in sorted(states)],
         "primitive": sorted({p for _, _, p in edges}) or ["none"],
         "goalpoint": goals,
+        "bodyshape": sorted({before, body}),
     }
-    goal = [f"(visited {g})" for g in goals]
+    goal = [f"(visited {g})" for g in goals] + ([f"(body {body})"] if before != body else [])
     return Problem("lattice", "screwsnake-lattice", objects, init, goal, "\n".join(lines))

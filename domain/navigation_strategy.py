@@ -121,7 +121,10 @@ class NavigationStrategy:
         record = ReplanRecord(
             trigger.kind, trigger.detail(), round(s.t, 3), latency, old, plan.pddl_plan, plan.status
         )
-        problem = lattice_problem(plan.legs, s.shape).text() if plan.legs else ""
+        first = plan.actions[0] if plan.actions else None
+        reshaped = s.shape if first is not None and first.name == "reshape" else None
+        lattice_shape = table.shape if table is not None else s.shape
+        problem = lattice_problem(plan.legs, lattice_shape, reshaped).text() if plan.legs else ""
         self._checked = (s.world.version, 0)
         return Replanned(
             plan.solved, plan.reason, record, lattice_domain().text(), problem, plan.pddl_plan

@@ -9,6 +9,7 @@ import numpy as np
 
 from app.executor.runner import MissionRunner
 from app.missions.spec import load_mission
+from domain.pyperplan_adapter import parse_and_ground, validate_plan
 from domain.reshape import reshape_clear, reshape_duration
 from primitives.library import load_bundled
 from primitives.shapes import SHAPES
@@ -47,7 +48,13 @@ def test_a_zigzag_body_changes_to_straight_to_enter_a_narrow_pocket() -> None:
     result = runner.run()
     assert result.status == "succeeded", result.reason
     assert all(g.error is not None and g.error <= g.tolerance for g in result.goals)
-    first = result.pddl[0]["plan"]  # the first plan
+    stored = result.pddl[0]  # the first plan and its PDDL
+    first = stored["plan"]
     assert first[0] == "(reshape zigzag straight)", first[:2]
     assert all("lat-straight-" in step for step in first[1:] if step.startswith("(move"))
+    # The export names the change: the problem starts in the zigzag body and asks for the
+    # straight one, and the plan is valid on it (and shorter plans without the change are not).
+    task = parse_and_ground(stored["domain"], stored["problem"], remove_irrelevant=False)
+    assert validate_plan(task, first) == (True, "valid")
+    assert not validate_plan(task, first[1:])[0]
     assert runner.ctx.shape == "straight"
