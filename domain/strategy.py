@@ -32,6 +32,7 @@ class Situation:
     ordered: bool
     world: WorldModel
     ranges: tuple[tuple[str, RangeObservation], ...] = ()
+    deformed: bool = False  # the body was forced into its shape: it cannot take another
 
 
 @dataclass(frozen=True)
@@ -41,6 +42,7 @@ class Command:
     control: Control
     action: str  # the plan step, as PDDL text
     grounding: dict[str, Any] = field(default_factory=dict)
+    shape: str | None = None  # the library shape the control's joints take (None: unchanged)
 
 
 @dataclass(frozen=True)
