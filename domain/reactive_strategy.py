@@ -353,7 +353,8 @@ class ReactiveStrategy:
                 self.steps.pop(0)  # effect reached: obstacle(togoal) = F
                 self.side, self.cleared = None, 0.0
                 self.legs = self._time_out(s, op) if self.timeout_return else []
-                return self.command(s)
+                after = self.command(s)
+                return after if after is not None else NoProgress(action, "plan finished")
         return self._run(s, self.side, action)
 
     def _correct(self, s: Situation, direction: float, action: str) -> Command | Trigger:
@@ -363,7 +364,9 @@ class ReactiveStrategy:
         keeps carrying the robot away from the goal."""
         basis = [e for e in correction_basis(self.library.lattice(s.shape)) if e.turn == 0.0]
         if not basis:
-            return NoProgress(action, f"body shape {s.shape} has no short primitives in the library")
+            return NoProgress(
+                action, f"body shape {s.shape} has no short primitives in the library"
+            )
         duration = max(e.rollout.duration for e in basis)
         local = direction - s.pose[2]
         assert self.goal is not None

@@ -169,7 +169,7 @@ def nearest(library: Library, shape: str, direction: float) -> Move:
 
 
 def split(
-    offset: Sequence[float], first: Sequence[float], second: Sequence[float]
+    offset: Sequence[float] | Array, first: Sequence[float] | Array, second: Sequence[float] | Array
 ) -> tuple[float, float] | None:
     """Seconds (a, b) with a·first + b·second = offset (velocities, one frame), a, b >= 0."""
     m = np.column_stack([np.asarray(first, dtype=float), np.asarray(second, dtype=float)])

@@ -63,7 +63,7 @@ def make_strategy(spec: MissionSpec, library: Library) -> PlanningStrategy | Non
                 p.search,
                 heuristic,
                 p.time_limit,
-                dict(p.operators),
+                {str(op): name for op, name in p.operators.items()},
                 p.threshold,
                 p.clearance,
                 p.timeout_return,
@@ -113,6 +113,7 @@ class MissionRunner:
             shape = coverage.shape
             if shape is None:
                 raise MissionError(f"shape: joints {list(joints)}: {coverage.describe()}")
+        assert shape is not None
         known = [o for o in spec.world_obstacles() if o.known]
         world = WorldModel(spec.bounds.bounds(), known)
         observation = robot.observe()
