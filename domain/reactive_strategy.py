@@ -174,7 +174,9 @@ class ReactiveStrategy:
         # over one tick it moves off its chord by an angle the last ticks measured: aim past it.
         local -= bias
         want = (math.cos(local), math.sin(local))
-        return aim(self.library, shape, want, entry, snap=False, keep=move.quadrant or None)
+        # ... within the quadrant the goal's own direction chose: the same three sources
+        keep = move.quadrant or None
+        return aim(self.library, shape, want, entry, snap=False, keep=keep, force_keep=True)
 
     @staticmethod
     def _key(move: Move) -> tuple[str, ...]:

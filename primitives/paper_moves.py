@@ -115,6 +115,7 @@ def aim(
     prefer_angle: float = PREFER_ANGLE,
     snap: bool = True,
     keep: str | None = None,
+    force_keep: bool = False,
 ) -> Move:
     """A move of ``shape`` towards the start-frame ``offset``: ``prefer`` (a primitive the
     mission selected, as the paper selects them) when it goes within ``prefer_angle`` of that
@@ -122,8 +123,8 @@ def aim(
     the quadrant holding the offset, at the quadrant's scale (max(|x|, |y|) = 2 m). Without
     ``snap`` the interpolation is used even next to a primitive (it equals the primitive at
     its corner), so a move re-aimed every tick keeps one set of sources; ``keep`` names the
-    quadrant used last, kept while the direction is within ``QUADRANT_SLACK`` of it (the
-    offset is then clipped onto that quadrant's axis)."""
+    quadrant used last, kept while the direction is within ``QUADRANT_SLACK`` of it, or always
+    with ``force_keep`` (the offset is then clipped onto that quadrant's axis)."""
     dx, dy = float(offset[0]), float(offset[1])
     want = math.atan2(dy, dx)
 
@@ -141,7 +142,7 @@ def aim(
     scale = QUADRANT_SIZE / max(abs(dx), abs(dy), 1e-9)
     goal = (dx * scale, dy * scale)
     quadrant = quadrant_of(goal)
-    if keep is not None and keep != quadrant and _near_quadrant(want, keep):
+    if keep is not None and keep != quadrant and (force_keep or _near_quadrant(want, keep)):
         quadrant = keep  # hysteresis: a direction wobbling over an axis keeps its sources
         sx, sy = QUADRANTS[keep]
         goal = (sx * max(sx * goal[0], 0.0), sy * max(sy * goal[1], 0.0))
