@@ -21,6 +21,8 @@ as the paper's planner evaluates "at every action interval" (§5.1.1):
   direction) for a time-out, then runs the other side's primitive (P6s) back towards the goal;
   the two durations split the offset to the goal with the library's velocities. Then PO1 aims
   at the goal again for what is left.
+- Correction steps (the shape's short lattice primitives blended, primitives/grounding.py)
+  take the last ``APPROACH`` metres, and over from a paper move that keeps leading away.
 """
 
 from __future__ import annotations
@@ -28,7 +30,6 @@ from __future__ import annotations
 import math
 import threading
 import time
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -40,6 +41,7 @@ from domain.reactive import (
     reactive_domain,
     reactive_problem,
 )
+from domain.reactive_aim import ChordBias, Leg
 from domain.strategy import Command, Replanned, Situation
 from domain.triggers import NoProgress, PathBlocked, ReplanRecord, Trigger
 from primitives.grounding import correction_basis, ground
@@ -53,8 +55,6 @@ CONE = math.radians(25)  # sensors within this of a direction look that way
 CLEARANCE = 0.6  # metres to keep sidestepping after the goal direction is clear
 BODY_LOOKAHEAD = 0.3  # metres the body is swept ahead when checking a direction
 BODY_MARGIN = 0.08
-BIAS_LIMIT = math.radians(75)  # the largest chord-to-motion angle believed
-BIAS_GAIN = 0.5  # how fast a new measurement of that angle replaces the old one
 APPROACH = 0.25  # metres from the goal where short library primitives take over
 ASTRAY_TICKS = 8  # ticks moving away from the goal before correction steps take over
 CORRECTION_TICKS = 40  # ... and how many ticks they then keep it
@@ -62,16 +62,6 @@ CORRECTION_SPEED = 0.04  # m/s of a correction step (screw speeds well within th
 REARM = 0.8  # PO1 breaks on a range below this fraction of the threshold (no chattering at it)
 MIN_RETURN = 0.02  # metres: a return move shorter than this is left to the next leg
 OPERATORS = ("po1", "po2", "po3")
-
-
-@dataclass
-class Leg:
-    """One queued run: an action name, its move and how long (model seconds) it runs."""
-
-    action: str
-    move: Move | None  # None: Set 1 towards its first world direction
-    seconds: float
-    started: float | None = None
 
 
 class ReactiveStrategy:
@@ -105,9 +95,7 @@ class ReactiveStrategy:
         self.approach = APPROACH
         self.astray = 0  # ticks a paper move carried the robot away from the goal
         self.correcting = 0  # ticks of correction steps left after it went astray
-        # Per move (shape and sources): the angle its one-tick motion makes with its chord.
-        self.bias: dict[tuple[str, ...], float] = {}
-        self.sent: tuple[tuple[str, ...], float, tuple[float, float, float], str] | None = None
+        self.chord = ChordBias()  # per move: the angle its one-tick motion makes with its chord
         self.steps: list[ReactiveStep] = []
         self.goal: tuple[float, float] | None = None
         self.side: Move | None = None  # the running avoidance's move
@@ -167,7 +155,7 @@ class ReactiveStrategy:
         keep = (self.last_po1.quadrant or None) if self.last_po1 is not None else None
         want = (math.cos(local), math.sin(local))
         move = aim(self.library, shape, want, entry, snap=False, keep=keep)
-        bias = self.bias.get(self._key(move))
+        bias = self.chord.get(move)
         if bias is None:
             return move
         # A primitive reaches its recorded end along an arc (it turns the body as it goes), so
@@ -178,28 +166,17 @@ class ReactiveStrategy:
         keep = move.quadrant or None
         return aim(self.library, shape, want, entry, snap=False, keep=keep, force_keep=True)
 
-    @staticmethod
-    def _key(move: Move) -> tuple[str, ...]:
-        return (move.shape, *move.primitives)
-
     def _observe(self, s: Situation) -> None:
-        """How far the last tick's motion turned off its move's chord (sensed poses only)."""
-        if self.sent is None:
+        """Learn from the last tick's motion; count ticks a paper move led away from the goal."""
+        motion = self.chord.observe(s.pose, s.shape)
+        if motion is None or self.goal is None or not self.steps:
             return
-        key, chord, (x, y, psi), shape = self.sent
-        self.sent = None
-        dx, dy = s.pose[0] - x, s.pose[1] - y
-        if shape != s.shape or math.hypot(dx, dy) < 1e-4:
-            return  # the body changed shape during the tick: its motion says nothing
-        if self.goal is not None and self.steps and self.steps[0].operator == "PO1":
+        if self.steps[0].operator == "PO1":
+            x, y = s.pose[0] - motion[0], s.pose[1] - motion[1]
             to_goal = math.atan2(self.goal[1] - y, self.goal[0] - x)
-            off = abs(math.remainder(math.atan2(dy, dx) - to_goal, 2 * math.pi))
+            off = abs(math.remainder(math.atan2(motion[1], motion[0]) - to_goal, 2 * math.pi))
             if off > math.pi / 2:
                 self.astray += 1
-        seen = math.remainder(math.atan2(dy, dx) - psi - chord, 2 * math.pi)
-        seen = max(-BIAS_LIMIT, min(BIAS_LIMIT, seen))
-        old = self.bias.get(key)
-        self.bias[key] = seen if old is None else old + BIAS_GAIN * (seen - old)
 
     def side_move(self, s: Situation, op: str, world_direction: float) -> Move:
         """PO2/PO3's grounding: the selected primitive, else the shape's Table 2 primitive
@@ -376,13 +353,13 @@ class ReactiveStrategy:
         offset = (speed * duration * math.cos(local), speed * duration * math.sin(local), 0.0)
         grounded = ground(offset, basis)
         control = FixedShape.of(grounded.theta, np.asarray(s.joints))
-        self.sent = None
+        self.chord.forget_tick()
         return Command(control, action, grounded.to_dict())
 
     def _run(self, s: Situation, move: Move, action: str) -> Command:
         joints = np.asarray(s.joints) if s.deformed else move.joints
         control = FixedShape.of(move.theta, joints)
-        self.sent = (self._key(move), move.direction, s.pose, s.shape if s.deformed else move.shape)
+        self.chord.commanded(move, s.pose, s.shape if s.deformed else move.shape)
         shape = None if s.deformed else move.shape
         return Command(control, action, move.grounding(), shape)
 
