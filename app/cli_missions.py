@@ -98,11 +98,32 @@ def print_summary(result: MissionResult) -> None:
         for r in result.replans:
             rt.add_row(f"{r.at:g}", r.trigger, f"{r.latency_ms:.1f}", r.status)
         console.print(rt)
+    print_executed(result)
     ratio = result.model_time / max(result.wall_time, 1e-9)
     console.print(
         f"collisions: {result.collisions}   model time: {result.model_time:g} s   "
         f"wall time: {result.wall_time:.2f} s   ({ratio:.0f}x real time)"
     )
+
+
+EXECUTED_ROWS = 40  # rows of the executed-primitives table before it is cut short
+
+
+def print_executed(result: MissionResult) -> None:
+    """The primitives the mission ran, in order (one row per action and grounding)."""
+    runs = [e for e in result.executed if e["labels"]]
+    if not runs:
+        return
+    table = Table(title=f"executed primitives ({len(runs)} runs)")
+    for col in ("from (s)", "to (s)", "action", "grounding", "primitives"):
+        table.add_column(col)
+    for e in runs[:EXECUTED_ROWS]:
+        table.add_row(
+            f"{e['from']:g}", f"{e['to']:g}", e["action"], str(e["method"]), "+".join(e["labels"])
+        )
+    console.print(table)
+    if len(runs) > EXECUTED_ROWS:
+        console.print(f"... {len(runs) - EXECUTED_ROWS} more runs (see the mission result)")
 
 
 def mission(

@@ -5,15 +5,23 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from importlib import resources
 from pathlib import Path
 
 import numpy as np
 
 from app.executor.runner import MissionRunner
 from app.missions.spec import load_mission
+from app.paper_missions import (
+    PaperRun,
+    chain_rows,
+    chain_targets,
+    examples_dir,
+    outcome_rows,
+    run_paper,
+)
 from app.plots import plot_learning_curves, plot_trajectories
-from primitives.interpolation import interpolate_entries
+from primitives.generalise import refine_aim
+from primitives.interpolation import Interpolated, interpolate_entries
 from primitives.learners import PI2
 from primitives.library import Library
 from primitives.params import ParameterSpace
@@ -21,6 +29,7 @@ from primitives.task import LearningTask
 from sim.rollout import rollout
 
 Row = tuple[str, str, str]  # what, the paper, ours
+GOAL_MARGIN = {"fig11-multiple-goals": 0.10, "fig12-multiple-goals": 0.40}  # m, see README
 
 
 @dataclass(frozen=True)
@@ -29,12 +38,6 @@ class Experiment:
     figure: str
     title: str
     run: Callable[[Library, Path], tuple[list[Row], Path]]
-
-
-def examples_dir() -> Path:
-    """Where the example missions live: the checkout's examples/ folder."""
-    here = Path(str(resources.files("app"))).parent / "examples"
-    return here if here.is_dir() else Path("examples")
 
 
 LEARNING = {
@@ -123,28 +126,124 @@ def fig6(library: Library, out: Path) -> tuple[list[Row], Path]:
     ], path
 
 
-def fig8(library: Library, out: Path) -> tuple[list[Row], Path]:
-    made = interpolate_entries(
-        [library.get("P1s"), library.get("P12"), library.get("P13")], (2.0, 1.0)
+@dataclass(frozen=True)
+class Fig8:
+    """Fig. 8's new behaviour: P1s, P12, P13 interpolated (eqs. 16-18) towards (2, 1), as the
+    paper aims it and with the aim point learned by a few rollouts (primitives/generalise.py)."""
+
+    made: Interpolated
+    end: tuple[float, float]
+    error: float
+    aimed: Interpolated
+    aimed_end: tuple[float, float]
+    aimed_error: float
+    rollouts: int
+
+
+FIG8_GOAL = (2.0, 1.0)
+
+
+def fig8_run(library: Library) -> Fig8:
+    """Both Fig. 8 behaviours and where they end (one rollout each, plus the aim's)."""
+    entries = [library.get("P1s"), library.get("P12"), library.get("P13")]
+    made = interpolate_entries(entries, FIG8_GOAL)
+    end = rollout(made.control()).states[0][-1, :2]
+    aimed, _, rollouts = refine_aim(entries, FIG8_GOAL)
+    aimed_end = rollout(aimed.control()).states[0][-1, :2]
+    return Fig8(
+        made,
+        (float(end[0]), float(end[1])),
+        math.dist(end, FIG8_GOAL),
+        aimed,
+        (float(aimed_end[0]), float(aimed_end[1])),
+        math.dist(aimed_end, FIG8_GOAL),
+        rollouts,
     )
-    states = rollout(made.control()).states[0]
+
+
+def fig8(library: Library, out: Path) -> tuple[list[Row], Path]:
+    run = fig8_run(library)
+    states = rollout(run.aimed.control()).states[0]
+    plain = rollout(run.made.control()).states[0]
     sources = [rollout(library.get(n).control()).states[0] for n in ("P1s", "P12", "P13")]
     path = plot_trajectories(
         out / "fig8.png",
-        [*sources, states],
+        [*sources, plain, states],
         title="Fig. 8: P1s, P12, P13 -> goal (2, 1)",
-        goals=[(2.0, 1.0)],
+        goals=[FIG8_GOAL],
         outlines=2,
-        labels=["P1s", "P12", "P13", "interpolated"],
+        labels=["P1s", "P12", "P13", "interpolated at (2, 1)", "interpolated, aim learned"],
     )
-    err = math.dist(states[-1, :2], (2.0, 1.0))
+    coverage = library.covers(tuple(float(v) for v in run.aimed.joints))
+    aim = run.aimed.extra["aim"]
+    assert isinstance(aim, list)
     return [
         (
-            "interpolated end point",
+            "interpolated at the goal (eqs. 16-18)",
             "reaches (2, 1) (Fig. 8d)",
-            f"({states[-1, 0]:.2f}, {states[-1, 1]:.2f}), {err * 100:.0f} cm off",
-        )
+            f"({run.end[0]:.2f}, {run.end[1]:.2f}), {run.error * 100:.1f} cm off",
+        ),
+        (
+            "interpolated at a learned aim",
+            "-",
+            f"aim ({aim[0]:.3f}, {aim[1]:.3f}) after {run.rollouts} rollouts: "
+            f"({run.aimed_end[0]:.3f}, {run.aimed_end[1]:.3f}), "
+            f"{run.aimed_error * 100:.2f} cm off",
+        ),
+        (
+            "body shape of the new behaviour",
+            "between straight and semi-zigzag",
+            f"{[round(float(v), 3) for v in run.aimed.joints]}: {coverage.describe()}",
+        ),
     ], path
+
+
+PAPER_CHAINS = {
+    "fig9b-obstacles": "Set 1 -> P2s (IR below threshold) -> Set 1 -> P6s (time-out)",
+    "fig10-two-obstacles": "P4s -> P2z -> P4s -> P2z -> P4s (PO1, PO2-PO1 twice)",
+    "fig11-multiple-goals": "P1s -> P4z -> P9, shape changes between them",
+    "fig12-multiple-goals": "IM1 (P8s, P1s, P2s) -> IM2 (P1a, P2a, P8a) -> IM3 (P4a, P5a, P6a) "
+    "-> P5pe -> P4pe",
+    "fig13b-deformation": "Set 1 -> deformation at 15 s -> IM4 (P10, P11, P12) towards 30 deg",
+}
+
+
+def paper_mission_experiment(name: str, figure: str, title: str, paper: str) -> Experiment:
+    """A mission the paper describes primitive by primitive: runs examples/paper/<name>.json
+    and tabulates the executed chain beside the paper's."""
+
+    def run(library: Library, out: Path) -> tuple[list[Row], Path]:
+        from app.cli_missions import plot_mission, sensed_cells
+
+        done = run_paper(name, library)
+        path = plot_mission(done.spec, done.result, out / f"{name}.png", sensed_cells(done.runner))
+        rows = [("executed chain", PAPER_CHAINS[name], " -> ".join(done.chain()))]
+        rows += chain_rows(done)
+        rows += goal_rows(name, done, library)
+        rows += outcome_rows(done, paper)
+        return rows, path
+
+    return Experiment(name, figure, title, run)
+
+
+def goal_rows(name: str, done: PaperRun, library: Library) -> list[Row]:
+    """A chain's goals: where the library predicts each step ends against where it did."""
+    if not done.spec.chain:
+        return []
+    rows = []
+    margin = GOAL_MARGIN.get(name, 0.10)
+    for i, (want, got) in enumerate(
+        zip(chain_targets(done.spec, library), done.step_ends(), strict=False)
+    ):
+        err = math.dist(want, got)
+        rows.append(
+            (
+                f"step {i} ends (library prediction)",
+                f"({want[0]:.2f}, {want[1]:.2f})",
+                f"({got[0]:.2f}, {got[1]:.2f}): {err * 100:.1f} cm off (margin {margin * 100:g})",
+            )
+        )
+    return rows
 
 
 def mission_experiment(name: str, figure: str, title: str, paper: str) -> Experiment:
@@ -176,28 +275,31 @@ EXPERIMENTS: dict[str, Experiment] = {
             mission_experiment(
                 "fig9a-single-goal", "Fig. 9a", "one goal, no obstacles", "goal (-3, -1) reached"
             ),
-            mission_experiment(
+            paper_mission_experiment(
                 "fig9b-obstacles",
                 "Fig. 9b",
-                "obstacle avoided by replanning",
+                "Set 1, P2s, Set 1, P6s: obstacle avoided, time-out return",
                 "obstacle avoided, goal reached",
             ),
             mission_experiment(
                 "fig9b-chain", "Fig. 9b", "manual chain of primitives", "primitives chained"
             ),
-            mission_experiment(
+            paper_mission_experiment(
                 "fig10-two-obstacles",
                 "Fig. 10",
-                "two obstacles, PO2-PO1 twice",
+                "P4s and P2z around two obstacles (PO2-PO1 twice)",
                 "both avoided, goal reached",
             ),
-            mission_experiment(
-                "fig11-multiple-goals", "Fig. 11", "three goals in sequence", "G1, G2, G3 reached"
+            paper_mission_experiment(
+                "fig11-multiple-goals",
+                "Fig. 11",
+                "P1s -> P4z -> P9 through G1, G2, G3",
+                "G1, G2, G3 reached",
             ),
-            mission_experiment(
+            paper_mission_experiment(
                 "fig12-multiple-goals",
                 "Fig. 12",
-                "three goals, several shapes",
+                "IM1 -> IM2 -> IM3 -> P5pe -> P4pe",
                 "G1, G2, G3 reached",
             ),
             mission_experiment(
@@ -206,8 +308,11 @@ EXPERIMENTS: dict[str, Experiment] = {
                 "goal (-1, 2) without deformation",
                 "goal reached",
             ),
-            mission_experiment(
-                "fig13b-deformation", "Fig. 13b", "deformation at 15 s", "goal reached with IM4"
+            paper_mission_experiment(
+                "fig13b-deformation",
+                "Fig. 13b",
+                "deformation at 15 s, IM4 from P10, P11, P12",
+                "goal reached with IM4",
             ),
             mission_experiment(
                 "fig13c-two-deformations", "Fig. 13c", "two deformations", "goal (-2, 3) reached"

@@ -104,7 +104,7 @@ class NavigationStrategy:
             for entry in self.backoff:  # plan from where backing off will leave the robot
                 pose = compose(pose, np.asarray(entry.end_pose))
             self.plan = self._plan(table, s, pose, cancel)
-            if self.plan.status in ("unreachable", "unsolvable", "timeout") and s.reshapeable:
+            if self.plan.status in ("unreachable", "unsolvable", "timeout") and not s.deformed:
                 table = self._reshaped(table, s, pose, cancel) or table
             if self.plan.solved and not self.plan.partial:
                 self.recoveries = 0

@@ -32,7 +32,7 @@ class Situation:
     ordered: bool
     world: WorldModel
     ranges: tuple[tuple[str, RangeObservation], ...] = ()
-    reshapeable: bool = True  # the joints obey commands (not after a deformation)
+    deformed: bool = False  # the body was forced into its shape: it cannot take another
 
 
 @dataclass(frozen=True)
@@ -42,7 +42,7 @@ class Command:
     control: Control
     action: str  # the plan step, as PDDL text
     grounding: dict[str, Any] = field(default_factory=dict)
-    shape: str | None = None  # the library shape the command puts the body in, if it changes
+    shape: str | None = None  # the library shape the control's joints take (None: unchanged)
 
 
 @dataclass(frozen=True)

@@ -124,3 +124,39 @@ class Generaliser:
         params = np.concatenate([theta, first.joints])
         extra: dict[str, object] = {"error": cost, "rollouts": rollouts}
         return Interpolated(goal, params, first.sources, f"blend+{method}", "", extra)
+
+
+def refine_aim(
+    entries: Sequence[Primitive],
+    goal: tuple[float, float],
+    iterations: int = 6,
+    threshold: float = 0.01,
+) -> tuple[Interpolated, float, int]:
+    """The paper's bilinear interpolation (eqs. 16-18) of ``entries`` aimed where it lands on
+    ``goal``: a few Newton steps on the aim point, whose Jacobian comes from finite-difference
+    rollouts. The behaviour stays an interpolation of the same three primitives (parameters
+    f(G') for an aim G'); only G' is learned, as a library-building step, never by a running
+    mission. Returns it, its end-point error (m) and the rollouts used."""
+    from primitives.interpolation import interpolate_entries
+    from sim.rollout import rollout
+
+    def end_of(aim: Array) -> Array:
+        made = interpolate_entries(entries, (float(aim[0]), float(aim[1])))
+        return np.asarray(rollout(made.control()).end[0][:2], dtype=float)
+
+    target = np.asarray(goal, dtype=float)
+    aim, step = target.copy(), 1e-3
+    end = end_of(aim)
+    rollouts = 1
+    for _ in range(iterations):
+        if float(np.linalg.norm(end - target)) < threshold:
+            break
+        jac = np.column_stack([(end_of(aim + step * e) - end) / step for e in np.eye(2)])
+        aim = aim + np.linalg.lstsq(jac, target - end, rcond=None)[0]
+        end = end_of(aim)
+        rollouts += 3
+    made = interpolate_entries(entries, (float(aim[0]), float(aim[1])))
+    error = float(np.linalg.norm(end - target))
+    extra: dict[str, object] = {"aim": [float(aim[0]), float(aim[1])], "error": error}
+    out = Interpolated(goal, made.params, made.sources, "bilinear+aim", made.quadrant, extra)
+    return out, error, rollouts

@@ -13,10 +13,10 @@ from __future__ import annotations
 
 import json
 import math
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterable, Iterator, Sequence
 from importlib import resources
 from pathlib import Path
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
@@ -25,6 +25,9 @@ from primitives.params import Kind, ParameterSpace
 from primitives.shapes import SHAPES
 from sim.controls import Control
 from sim.rollout import JointMode, RolloutConfig
+
+if TYPE_CHECKING:
+    from primitives.coverage import Coverage
 
 FORMAT: Literal["screwsnake-primitive-library"] = "screwsnake-primitive-library"
 FORMAT_VERSION = 2
@@ -189,6 +192,14 @@ class Library:
     def lattice_shapes(self) -> list[str]:
         """Shapes that have lattice primitives."""
         return sorted({e.shape for e in self if e.family == "lattice"})
+
+    def covers(self, joints: Sequence[float], tolerance: float | None = None) -> Coverage:
+        """Whether the library covers the body shape ``joints``: a library shape within the
+        joint tolerance, or interpolable between library shapes (primitives/coverage.py)."""
+        from primitives.coverage import JOINT_TOLERANCE, covers
+
+        tol = JOINT_TOLERANCE if tolerance is None else tolerance
+        return covers(joints, self.shapes(), tol)
 
     def nearest(self, displacement: tuple[float, float], shape: str) -> Primitive:
         """The paper entry of ``shape`` whose start-frame goal is closest to ``displacement``."""

@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
-import numpy as np
 from numpy.typing import ArrayLike
 
 
@@ -41,13 +39,9 @@ def shape_named(name: str) -> Shape:
 
 
 def classify_shape(joints: ArrayLike, tolerance: float = 0.15) -> str | None:
-    """The fixed named shape nearest to sensed ``joints`` (max-abs distance within ``tolerance``)."""
-    j = np.asarray(joints, dtype=float)
-    if j.shape != (3,) or not np.all(np.isfinite(j)):
-        return None
-    best, best_d = None, math.inf
-    for name in FIXED_SHAPES:
-        d = float(np.max(np.abs(j - np.array(SHAPES[name].joints))))
-        if d < best_d:
-            best, best_d = name, d
-    return best if best_d <= tolerance else None
+    """The fixed named shape within ``tolerance`` (max-abs) of sensed ``joints``, else None:
+    the ``library`` case of ``primitives.coverage.covers`` over every named shape."""
+    from primitives.coverage import covers
+
+    found = covers(joints, FIXED_SHAPES, tolerance)
+    return found.shape if found.kind == "library" else None

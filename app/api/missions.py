@@ -74,7 +74,8 @@ def found(svc: Services, mission_id: str) -> MissionRow:
 
 
 def check_library(svc: Services, spec: MissionSpec) -> None:
-    """Chain steps must name primitives the running library has (422 naming the step)."""
+    """Chain steps and reactive operators must name primitives the running library has (422
+    naming the field)."""
     for i, step in enumerate(spec.chain):
         names = (
             [step.primitive]
@@ -84,6 +85,11 @@ def check_library(svc: Services, spec: MissionSpec) -> None:
         for name in names:
             if name not in svc.library:
                 raise HTTPException(422, f"chain.{i}: primitive {name!r} is not in the library")
+    for op, name in spec.planner.operators.items():
+        entry = svc.library.get(name) if name in svc.library else None
+        if entry is None or entry.periodic:
+            why = "is not in the library" if entry is None else "is periodic (no fixed shape)"
+            raise HTTPException(422, f"planner.operators.{op}: primitive {name!r} {why}")
 
 
 @router.post(

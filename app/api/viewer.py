@@ -9,7 +9,7 @@ from typing import Any
 from fastapi import APIRouter, HTTPException
 from fastapi.responses import FileResponse
 
-from app.paper import examples_dir
+from app.paper_missions import examples_dir
 
 router = APIRouter(tags=["viewer"])
 STATIC = Path(__file__).resolve().parents[1] / "static"

@@ -22,8 +22,7 @@ from app.executor.robot import ContactReading
 from app.missions.spec import ARRIVE_FRACTION
 from domain.strategy import Command
 from domain.triggers import Contact, Initial, NoProgress, ShapeChanged, Trigger
-from primitives.shapes import SHAPES, classify_shape
-from sim.controls import FixedShape
+from primitives.shapes import SHAPES
 from sim.obstacles import point_segment_distance
 from sim.robot import DEFAULT_GEOMETRY, Array, joint_positions, rotate
 from sim.world import footprint
@@ -156,18 +155,19 @@ class ShapeGuard(MissionBehaviour):
         if float(np.max(np.abs(sensed - np.asarray(ctx.joints)))) <= SHAPE_TOLERANCE:
             return Status.SUCCESS
         joints = (float(sensed[0]), float(sensed[1]), float(sensed[2]))
-        shape = classify_shape(joints) or classify_shape(joints, tolerance=0.4)
+        coverage = ctx.library.covers(joints)
         rounded = [round(v, 2) for v in joints]
-        if shape is None:
+        if coverage.shape is None:
             ctx.failure = (
-                f"body shape {rounded} has no primitives in the library "
-                "(it matches no library shape)"
+                f"body shape {rounded} has no primitives in the library ({coverage.describe()})"
             )
             self.feedback_message = ctx.failure
             return Status.FAILURE
-        # The body holds what it was forced into: compare against that from now on.
+        # The body holds what it was forced into: compare against that from now on. A shape
+        # covered by interpolation runs its nearest library shape's primitives, joints held.
+        shape = coverage.shape
         ctx.shape, ctx.joints, ctx.deformed = shape, joints, True
-        ctx.event("deform", joints=rounded, shape=shape)
+        ctx.event("deform", joints=rounded, shape=shape, coverage=coverage.to_dict())
         return self.fail(ShapeChanged(shape, joints), f"deformed into {shape}")
 
 
@@ -202,10 +202,13 @@ class Execute(MissionBehaviour):
         if not isinstance(outcome, Command):
             return self.fail(outcome, f"execution stopped: {outcome.kind}")
         ctx.command = outcome.control
-        if outcome.shape is not None and isinstance(outcome.control, FixedShape):
-            # A commanded shape change: the joint sensors are held to the new shape from now.
-            j = outcome.control.joints[0]
-            ctx.shape, ctx.joints = outcome.shape, (float(j[0]), float(j[1]), float(j[2]))
+        joints = getattr(outcome.control, "joints", None)
+        if outcome.shape is not None and not ctx.deformed and joints is not None:
+            # The strategy runs a primitive of this shape: the body takes (or keeps) it.
+            if outcome.shape != ctx.shape:
+                ctx.event("shape_change", shape=outcome.shape, previous=ctx.shape)
+                ctx.shape = outcome.shape
+            ctx.joints = (float(joints[0, 0]), float(joints[0, 1]), float(joints[0, 2]))
         ctx.current_action = outcome.action
         ctx.grounding = outcome.grounding
         self.feedback_message = ctx.current_action

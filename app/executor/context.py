@@ -72,6 +72,7 @@ class MissionContext:
     interval: float = 0.25  # model seconds per control tick
     chain_started: float = 0.0
     chain_entry_pose: tuple[float, float, float] | None = None
+    executed: list[dict[str, Any]] = field(default_factory=list)
 
     @property
     def t(self) -> float:
@@ -89,6 +90,46 @@ class MissionContext:
 
     def event(self, kind: str, **detail: Any) -> None:
         self.events.append({"t": round(self.t, 3), "kind": kind, **detail})
+
+    def record_executed(self, duration: float) -> None:
+        """Log the command about to run for ``duration``: consecutive ticks of one action and
+        grounding method extend one entry (what a user reads as the executed chain)."""
+        g = self.grounding
+        ids = [str(p) for p in g.get("primitives", [])]
+        x, y, _ = self.pose
+        last = self.executed[-1] if self.executed else None
+        if last is not None and (last["action"], last["method"]) == (
+            self.current_action,
+            g.get("method"),
+        ):
+            last["to"] = round(self.t + duration, 3)
+            for p in ids:  # a re-grounded action lists every primitive it ran
+                if p not in last["primitives"]:
+                    last["primitives"].append(p)
+                    last["labels"].append(self.library.get(p).name if p in self.library else p)
+            return
+        if last is not None:
+            last["end"] = [round(x, 4), round(y, 4)]
+        self.executed.append(
+            {
+                "from": round(self.t, 3),
+                "to": round(self.t + duration, 3),
+                "action": self.current_action,
+                "method": g.get("method"),
+                "primitives": ids,
+                "labels": [self.library.get(p).name if p in self.library else p for p in ids],
+                "shape": self.shape,
+                "towards_deg": g.get("towards_deg"),  # an interpolation's aim, paper labels
+                "start": [round(x, 4), round(y, 4)],
+                "end": None,
+            }
+        )
+
+    def close_executed(self) -> None:
+        """The last entry's end point is where the robot is now."""
+        if self.executed and self.executed[-1]["end"] is None:
+            x, y, _ = self.pose
+            self.executed[-1]["end"] = [round(x, 4), round(y, 4)]
 
     def remaining_goals(self) -> list[int]:
         return [i for i, g in enumerate(self.goals) if not g.reached]
@@ -115,7 +156,7 @@ class MissionContext:
             ordered=self.spec.order == "given",
             world=self.world,
             ranges=self.observation.ranges,
-            reshapeable=not self.deformed,
+            deformed=self.deformed,
         )
 
 
@@ -132,6 +173,12 @@ class MissionResult:
     trajectory: list[list[float]]
     events: list[dict[str, Any]]
     pddl: list[dict[str, Any]]
+    executed: list[dict[str, Any]] = field(default_factory=list)
+
+    def chain(self) -> list[str]:
+        """The executed behaviours as a user reads them: each entry's primitive labels joined
+        with '+' (one primitive, or the sources of an interpolation), in order."""
+        return ["+".join(e["labels"]) for e in self.executed if e["labels"]]
 
     def summary(self) -> dict[str, Any]:
         return {
@@ -143,4 +190,5 @@ class MissionResult:
             "replans": [r.to_dict() for r in self.replans],
             "model_time": self.model_time,
             "wall_time": self.wall_time,
+            "executed": self.executed,
         }

@@ -30,7 +30,6 @@ from domain.strategy import PlanningStrategy
 from domain.worldmodel import WorldModel
 from primitives.grounding import TICK
 from primitives.library import Library
-from primitives.shapes import classify_shape
 from sim.controls import FixedShape
 
 MAX_RETICKS = 4  # ticks within one control tick while the tree only plans
@@ -58,7 +57,19 @@ def make_strategy(spec: MissionSpec, library: Library) -> PlanningStrategy | Non
     own = p.heuristic in ("roadmap", "lattice")
     if p.domain == "reactive":
         heuristic: str = "hff" if own else p.heuristic
-        return ReactiveStrategy(library, p.search, heuristic, p.time_limit)
+        try:
+            return ReactiveStrategy(
+                library,
+                p.search,
+                heuristic,
+                p.time_limit,
+                {str(op): name for op, name in p.operators.items()},
+                p.threshold,
+                p.clearance,
+                p.timeout_return,
+            )
+        except (KeyError, ValueError) as exc:
+            raise MissionError(f"planner.operators: {str(exc).strip(chr(34))}") from exc
     heuristic = "lattice" if own else p.heuristic
     settings = LatticeSettings(margin=p.margin)
     planner = LatticePlanner(spec.bounds.bounds(), settings, p.search, heuristic, p.time_limit)
@@ -96,9 +107,13 @@ class MissionRunner:
     @staticmethod
     def _context(spec: MissionSpec, library: Library, robot: Robot) -> MissionContext:
         joints = spec.start_joints()
-        shape = classify_shape(joints) if spec.shape_name() == "custom" else spec.shape_name()
-        if shape is None:
-            raise MissionError(f"shape: joints {list(joints)} match no library shape")
+        shape: str | None = spec.shape_name()
+        if shape == "custom":
+            coverage = library.covers(joints)
+            shape = coverage.shape
+            if shape is None:
+                raise MissionError(f"shape: joints {list(joints)}: {coverage.describe()}")
+        assert shape is not None
         known = [o for o in spec.world_obstacles() if o.known]
         world = WorldModel(spec.bounds.bounds(), known)
         observation = robot.observe()
@@ -143,7 +158,10 @@ class MissionRunner:
             )
         if self.tree.status == Status.FAILURE:
             return self._finish("failed", ctx.failure or "the behaviour tree failed")
-        command = ctx.command or FixedShape.of(np.zeros(4), ctx.joints)  # hold still
+        if ctx.command is None:  # hold still
+            ctx.current_action, ctx.grounding = "hold", {}
+        command = ctx.command or FixedShape.of(np.zeros(4), ctx.joints)
+        ctx.record_executed(TICK)
         ctx.observation = self.robot.act(command, TICK)
         for entry in ctx.observation.log:
             ctx.event(
@@ -164,6 +182,7 @@ class MissionRunner:
 
     def _finish(self, status: str, reason: str) -> bool:
         self.status, self.reason = status, reason
+        self.ctx.close_executed()
         py_trees.blackboard.Blackboard.unset(f"{self.namespace}/context")
         return True
 
@@ -206,6 +225,7 @@ class MissionRunner:
             trajectory=self.trajectory(),
             events=ctx.events,
             pddl=ctx.pddl,
+            executed=ctx.executed,
         )
 
 

@@ -207,6 +207,45 @@ class PlannerSpec(Strict):
             description="metres the planned swept footprint keeps from anything known or sensed",
         ),
     ] = 0.02
+    operators: Annotated[
+        dict[Literal["po1", "po2", "po3"], Annotated[str, Field(min_length=1, max_length=64)]],
+        Field(
+            description=(
+                "reactive domain: the Table 2 primitive (id or label) grounding an operator, as "
+                "the paper selects them (Fig. 10: po1 P4s, po2 P2z); unnamed operators use the "
+                "body shape's primitives (PO1: interpolated towards the goal)"
+            )
+        ),
+    ] = {}
+    threshold: Annotated[
+        float,
+        StrictNumber(),
+        Field(
+            allow_inf_nan=False,
+            gt=0,
+            le=5,
+            description="reactive domain: obstacle(direction) holds while a range there reads below this (m)",
+        ),
+    ] = 0.6
+    clearance: Annotated[
+        float,
+        StrictNumber(),
+        Field(
+            allow_inf_nan=False,
+            ge=0,
+            le=5,
+            description="reactive domain: metres PO2/PO3 go on once the goal direction is clear",
+        ),
+    ] = 0.6
+    timeout_return: Annotated[
+        bool,
+        Field(
+            description=(
+                "reactive domain, Fig. 9b: after an avoidance go back to Set 1 for a time-out, "
+                "then take the other side's primitive back towards the goal"
+            )
+        ),
+    ] = False
 
 
 class SensorSpec(Strict):
@@ -256,6 +295,19 @@ class ChainStep(Strict):
     primitive: str | None = None
     interpolate: InterpolateSpec | None = None
     until: Until
+    heading: Annotated[
+        float | None,
+        StrictNumber(),
+        Field(
+            allow_inf_nan=False,
+            ge=-360,
+            le=360,
+            description=(
+                "turn in place to this world heading (degrees) before the step, with the step "
+                "shape's library turns: a primitive then moves as it was learned from the start pose"
+            ),
+        ),
+    ] = None
 
     @model_validator(mode="after")
     def _one(self) -> ChainStep:

@@ -186,6 +186,22 @@ def test_cancel_reaches_a_running_mission(client: TestClient) -> None:
         ({"goals": [{"x": 1, "y": 1}], "bogus": True}, "bogus"),
         ({"goals": [{"x": 1, "y": 1}], "obstacles": [{"type": "hexagon"}]}, "obstacles.0"),
         ({"chain": [{"primitive": "P99", "until": {"duration": 5}}]}, "chain.0"),
+        (  # a reactive operator names a primitive the library lacks, or a periodic one
+            {
+                "goals": [{"x": 1, "y": 1}],
+                "planner": {"domain": "reactive", "operators": {"po2": "P99"}},
+            },
+            "planner.operators.po2",
+        ),
+        (
+            {"goals": [{"x": 1, "y": 1}], "planner": {"operators": {"po1": "P4pe"}}},
+            "planner.operators.po1",
+        ),
+        (
+            {"goals": [{"x": 1, "y": 1}], "planner": {"operators": {"po4": "P4s"}}},
+            "planner.operators",
+        ),
+        ({"goals": [{"x": 1, "y": 1}], "planner": {"threshold": 0}}, "planner.threshold"),
         ({"goals": [{"x": 1, "y": 1}], "speed": -1}, "speed"),
         (  # the start's body, not its head, overlaps an obstacle
             {
