@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -24,7 +23,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from domain.lattice import Key, LatticeGrid, LatticeSettings, MotionTable
 from domain.lattice_task import Clearance, LatticeHeuristic, LatticeTask, primitive_name
-from domain.pyperplan_adapter import HEURISTICS, SEARCHES, PlanResult, SearchStopped
+from domain.pyperplan_adapter import HEURISTICS, SEARCHES, CancelFlag, PlanResult, SearchStopped
 from sim.robot import Array
 from sim.world import Bounds, footprint
 
@@ -205,7 +204,7 @@ class LatticePlanner:
         pose: Sequence[float],
         goals: Sequence[LegGoal],
         ordered: bool,
-        cancel: threading.Event | None = None,
+        cancel: CancelFlag | None = None,
         static: tuple[Clearance, Any] | None = None,
     ) -> LatticePlan:
         """A plan from ``pose`` through ``goals`` (in the given order, or the best found).
@@ -262,7 +261,7 @@ class LatticePlanner:
         goal: LegGoal,
         first: bool,
         deadline: float,
-        cancel: threading.Event | None,
+        cancel: CancelFlag | None,
     ) -> LatticeTask:
         """The task of one leg: from ``start`` to the tracked point on ``goal``."""
         task = LatticeTask(

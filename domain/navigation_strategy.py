@@ -11,7 +11,6 @@ primitive comes from its library entry; nothing probes a simulator or inverts th
 from __future__ import annotations
 
 import math
-import threading
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -22,6 +21,7 @@ from domain.lattice import LatticeSettings, MotionTable, compose, motion_table, 
 from domain.lattice_pddl import lattice_domain, lattice_problem
 from domain.lattice_planner import LatticeAction, LatticePlan, LatticePlanner
 from domain.lattice_task import LatticeTask
+from domain.pyperplan_adapter import CancelFlag
 from domain.strategy import Command, Replanned, Situation
 from domain.triggers import Contact, NoProgress, PathBlocked, ReplanRecord, Trigger
 from primitives.grounding import TICK, Grounded, correction_basis, ground
@@ -84,7 +84,7 @@ class NavigationStrategy:
 
     # -- PlanningStrategy ----------------------------------------------------------------------
     def replan(
-        self, situation: Situation, trigger: Trigger, cancel: threading.Event | None = None
+        self, situation: Situation, trigger: Trigger, cancel: CancelFlag | None = None
     ) -> Replanned:
         s = situation
         t0 = time.perf_counter()

@@ -10,12 +10,12 @@ Each move(angle, shape) is grounded for one tick by blending library primitives.
 from __future__ import annotations
 
 import math
-import threading
 import time
 from typing import Any
 
 import numpy as np
 
+from domain.pyperplan_adapter import CancelFlag
 from domain.reactive import (
     ReactiveState,
     ReactiveStep,
@@ -93,7 +93,7 @@ class ReactiveStrategy:
 
     # -- PlanningStrategy ----------------------------------------------------------------------
     def replan(
-        self, situation: Situation, trigger: Trigger, cancel: threading.Event | None = None
+        self, situation: Situation, trigger: Trigger, cancel: CancelFlag | None = None
     ) -> Replanned:
         s = situation
         t0 = time.perf_counter()

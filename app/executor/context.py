@@ -14,6 +14,7 @@ from typing import Any
 from app.executor.robot import Observation, Robot
 from app.missions.spec import MissionSpec
 from domain.lattice_planner import LegGoal
+from domain.pyperplan_adapter import CancelFlag
 from domain.strategy import PlanningStrategy, Situation
 from domain.triggers import ReplanRecord, Trigger
 from domain.worldmodel import WorldModel
@@ -72,6 +73,7 @@ class MissionContext:
     interval: float = 0.25  # model seconds per control tick
     chain_started: float = 0.0
     chain_entry_pose: tuple[float, float, float] | None = None
+    cancel: CancelFlag | None = None  # the mission's cancel flag, passed to the planner
 
     @property
     def t(self) -> float:

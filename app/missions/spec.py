@@ -265,7 +265,8 @@ class ChainStep(Strict):
 
 
 class MissionSpec(Strict):
-    name: Annotated[str, Field(max_length=120)] = "mission"
+    # No NUL: PostgreSQL cannot store it in a text column.
+    name: Annotated[str, Field(max_length=120, pattern=r"^[^\x00]*$")] = "mission"
     start: Pose = Pose()
     shape: str | JointsShape = "straight"
     goals: Annotated[list[GoalSpec], Field(max_length=MAX_GOALS)] = []
