@@ -23,7 +23,14 @@ from scipy.sparse.csgraph import dijkstra
 
 from domain.lattice import Key, LatticeGrid, LatticeSettings, MotionTable
 from domain.lattice_task import Clearance, LatticeHeuristic, LatticeTask, primitive_name
-from domain.pyperplan_adapter import HEURISTICS, SEARCHES, CancelFlag, PlanResult, SearchStopped
+from domain.pyperplan_adapter import (
+    HEURISTICS,
+    SEARCHES,
+    CancelFlag,
+    PlanResult,
+    SearchStopped,
+    stop_if_due,
+)
 from sim.robot import Array
 from sim.world import Bounds, footprint
 
@@ -217,10 +224,23 @@ class LatticePlanner:
         start = self.key_of(table, pose)
         si, sj, _ = start
         here_xy = tuple(float(v) for v in self.grid.centre(si, sj))
-        maps = {
-            g.index: self.distances(table, clearance, version, g, (here_xy[0], here_xy[1]))
-            for g in goals
-        }
+        maps: dict[int, Array] = {}
+        try:  # preparing is planning too: inside the time limit, and cancellable
+            for g in goals:
+                stop_if_due(cancel, deadline)
+                maps[g.index] = self.distances(
+                    table, clearance, version, g, (here_xy[0], here_xy[1])
+                )
+        except SearchStopped as stop:
+            why = (
+                "planning cancelled"
+                if stop.status == "cancelled"
+                else f"planning timeout: the distance maps of {len(goals)} goals took longer "
+                f"than {self.time_limit:g} s to prepare"
+            )
+            done = LatticePlan(stop.status, why)
+            done.search_ms = (time.monotonic() - started) * 1e3
+            return done
         for g in goals:
             if not math.isfinite(maps[g.index][si, sj]):
                 return LatticePlan("unreachable", self._enclosed(table, g, pose, static))

@@ -23,6 +23,7 @@ from pydantic import (
 )
 from pydantic import Strict as StrictNumber  # no bool or string coerced into a number
 
+from domain.lattice import LatticeSettings
 from primitives.shapes import SHAPES, shape_named
 from sim.obstacles import Obstacle, obstacle_from_dict
 from sim.robot import DEFAULT_GEOMETRY
@@ -35,6 +36,7 @@ MAX_OBSTACLES = 200
 MAX_EVENTS = 20
 MAX_CHAIN = 50
 ARENA_LIMIT = 500.0  # metres from the origin
+MAX_ARENA_CELLS = 1_000_000  # lattice cells: bounds planning memory and each distance map's time
 Coord = Annotated[
     float, StrictNumber(), Field(allow_inf_nan=False, ge=-ARENA_LIMIT, le=ARENA_LIMIT)
 ]
@@ -107,6 +109,13 @@ class BoundsSpec(Strict):
     def _ordered(self) -> BoundsSpec:
         if self.xmin >= self.xmax or self.ymin >= self.ymax:
             raise ValueError("need xmin < xmax and ymin < ymax")
+        r = LatticeSettings().resolution
+        cells = math.ceil((self.xmax - self.xmin) / r) * math.ceil((self.ymax - self.ymin) / r)
+        if cells > MAX_ARENA_CELLS:
+            raise ValueError(
+                f"the arena has {cells} planning cells of {r:g} m; at most {MAX_ARENA_CELLS} "
+                "(e.g. 50 m x 50 m): each planning map covers the whole arena"
+            )
         return self
 
     def bounds(self) -> Bounds:
