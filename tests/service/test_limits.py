@@ -31,7 +31,9 @@ def app_client(tmp_path: Path, **settings: object) -> TestClient:
     return TestClient(create_app(Settings.model_validate({"database_url": url, **settings})))
 
 
-def wait_status(c: TestClient, mission_id: str, statuses: tuple[str, ...], timeout: float = 60) -> dict:
+def wait_status(
+    c: TestClient, mission_id: str, statuses: tuple[str, ...], timeout: float = 60
+) -> dict:
     deadline = time.monotonic() + timeout
     while time.monotonic() < deadline:
         m = c.get(f"/missions/{mission_id}").json()
@@ -75,9 +77,7 @@ def test_full_queue_is_503_with_retry_after_and_stores_nothing(tmp_path: Path) -
         ({"speed": 0.1, "time_limit": 1000}, "wall-clock limit of 600"),
     ],
 )
-def test_speed_is_bounded_by_the_wall_clock_limit(
-    tmp_path: Path, body: dict, detail: str
-) -> None:
+def test_speed_is_bounded_by_the_wall_clock_limit(tmp_path: Path, body: dict, detail: str) -> None:
     with app_client(tmp_path, wall_limit=600) as c:
         r = c.post("/missions", json={**GOAL, **body})
         assert r.status_code == 422 and r.json()["field"] == "speed"
