@@ -21,6 +21,8 @@ from app.api.errors import problem
 from app.missions.spec import MissionSpec
 from app.service.supervisor import QueueFull
 from app.settings import Settings
+from primitives.library import Library
+from primitives.shapes import classify_shape
 
 SAFE_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
 # Computation, not a write: guarded only under SCREWSNAKE_AUTH=all.
@@ -147,8 +149,19 @@ class RequestGuard:
         return counted
 
 
-def check_mission(spec: MissionSpec, settings: Settings) -> None:
-    """Limits that depend on the server's settings: 422 naming ``speed``."""
+def check_mission(spec: MissionSpec, settings: Settings, library: Library) -> None:
+    """What depends on the server: its library covers the body shape (422 naming ``shape``),
+    and the speed fits its wall-clock limit (422 naming ``speed``)."""
+    if spec.goals and spec.planner.domain == "navigation":
+        shape = spec.shape_name()
+        if shape == "custom":  # the spec made sure it classifies
+            shape = classify_shape(spec.start_joints()) or shape
+        if shape not in library.lattice_shapes():
+            invalid(
+                "shape",
+                f"the library has no lattice primitives for {shape!r} to plan with; "
+                f"shapes it has: {', '.join(library.lattice_shapes())}",
+            )
     if spec.speed == 0:
         return  # unpaced: only the wall-clock limit applies, while it runs
     if spec.speed < settings.min_speed:

@@ -99,7 +99,7 @@ def create_mission(
 ) -> MissionOut:
     """Validate and store the mission, then queue it; a retried Idempotency-Key returns it again."""
     check_library(svc, spec)
-    check_mission(spec, svc.settings)
+    check_mission(spec, svc.settings, svc.library)
     if svc.supervisor.full():  # before the row: never a stored mission that cannot run
         raise QueueFull()
     row, created = svc.store.create_mission(

@@ -24,7 +24,7 @@ from pydantic import (
 from pydantic import Strict as StrictNumber  # no bool or string coerced into a number
 
 from domain.lattice import LatticeSettings
-from primitives.shapes import SHAPES, shape_named
+from primitives.shapes import FIXED_SHAPES, SHAPES, classify_shape, shape_named
 from sim.obstacles import Obstacle, obstacle_from_dict
 from sim.robot import DEFAULT_GEOMETRY
 from sim.world import Bounds, World, footprint
@@ -304,6 +304,18 @@ class MissionSpec(Strict):
             raise ValueError("chain: give goals or a chain of primitives, not both")
         if isinstance(self.shape, str) and self.shape not in SHAPES:
             raise ValueError(f"shape: unknown {self.shape!r}; known: {', '.join(SHAPES)}")
+        if isinstance(self.shape, JointsShape) and classify_shape(self.shape.joints) is None:
+            raise ValueError(
+                f"shape.joints: {list(self.shape.joints)} match no library shape (each joint "
+                f"within 0.15 rad of one of {', '.join(FIXED_SHAPES)})"
+            )
+        for i, step in enumerate(self.chain):
+            name = step.until.sensor
+            if name is not None and not _range_sensor(name, self.sensors.ring):
+                raise ValueError(
+                    f"chain.{i}.until.sensor: no range sensor {name!r} (ir, "
+                    f"ring0..ring{self.sensors.ring - 1})"
+                )
         for i, event in enumerate(self.events):
             if isinstance(event, DropoutEvent):
                 for name in event.sensors:
@@ -364,6 +376,11 @@ class MissionSpec(Strict):
 
     def shape_name(self) -> str:
         return self.shape if isinstance(self.shape, str) else "custom"
+
+
+def _range_sensor(name: str, ring: int) -> bool:
+    """``ir`` or ``ring<k>`` with k below the ring's size: the sensors a chain can wait on."""
+    return name == "ir" or (_RING_NAME.fullmatch(name) is not None and int(name[4:]) < ring)
 
 
 def _xy(x: float, y: float) -> Any:

@@ -167,3 +167,31 @@ def test_tree_is_freed_from_memory_after_the_end_and_kept_in_the_store(tmp_path:
         assert m["id"] not in hub.last_tree
         tree = c.get(f"/missions/{m['id']}/tree").json()
         assert tree and "name" in tree
+
+
+@pytest.mark.parametrize(
+    ("body", "field"),
+    [
+        (  # a chain waiting on a sensor the robot does not have would run to its time limit
+            {"chain": [{"primitive": "P1s", "until": {"sensor": "sonar", "below": 0.3}}]},
+            "chain.0.until.sensor",
+        ),
+        (
+            {
+                "sensors": {"ring": 4},
+                "chain": [{"primitive": "P1s", "until": {"sensor": "ring4", "below": 0.3}}],
+            },
+            "chain.0.until.sensor",
+        ),
+        ({**GOAL, "shape": {"joints": [1.2, -1.2, 1.2]}}, "shape.joints"),
+        ({**GOAL, "shape": "periodic"}, "shape"),  # no lattice primitives to plan with
+    ],
+)
+def test_what_would_fail_later_is_422_at_post(tmp_path: Path, body: dict, field: str) -> None:
+    with app_client(tmp_path) as c:
+        r = c.post("/missions", json=body)
+        assert r.status_code == 422, r.text
+        assert r.json()["field"] == field
+        assert c.get("/missions").json()["total"] == 0
+        ok = {"chain": [{"primitive": "P1s", "until": {"sensor": "ring3", "below": 0.3}}]}
+        assert c.post("/missions", json={**ok, "sensors": {"ring": 4}}).status_code == 201
