@@ -31,8 +31,8 @@ def reconcile(store: Store, supervisor: Supervisor) -> list[str]:
         log.warning("mission %s had no worker: failed", mission_id)
         supervisor.metrics.finished.labels("failed").inc()
         supervisor.publish_end(mission_id)
-    with supervisor.lock:
-        known = set(supervisor.known)
+    with supervisor.lock:  # waiting, or started (its worker may not have said so yet)
+        known = supervisor.known | supervisor.running
     for mission_id in store.queued(before=now() - SETTLE):
         if mission_id not in known:
             log.warning("mission %s was queued but not waiting: queued again", mission_id)

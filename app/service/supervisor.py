@@ -268,6 +268,9 @@ class Supervisor:
                     continue
                 if self._handle(mission_id, message):
                     return
+        except BaseException:  # e.g. the store failed: nobody would read the worker any more
+            process.kill()
+            raise
         finally:
             process.join(timeout=10)
             if process.is_alive():
