@@ -200,8 +200,8 @@ class Supervisor:
             self.known.discard(mission_id)
             self.metrics.queued.set(len(self.known))
             row = self.store.get_mission(mission_id)
-            if row is None or row.status != "queued":
-                return  # cancelled while it waited
+            if row is None or row.status != "queued" or mission_id in self.running:
+                return  # cancelled while it waited (or queued twice)
             cancel = self.cancels[mission_id] = CONTEXT.Event()
             self.running.add(mission_id)
         self.metrics.running.inc()
