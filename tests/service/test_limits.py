@@ -100,6 +100,20 @@ def test_a_mission_over_the_wall_clock_limit_fails_with_that_reason(tmp_path: Pa
         assert (m["status"], m["reason"]) == ("failed", "wall-clock limit: 1 s reached")
 
 
+def test_a_worker_stuck_in_planning_past_the_wall_clock_limit_is_stopped(tmp_path: Path) -> None:
+    heavy = {  # pyperplan A*/hFF over 50 unordered goals: many seconds before the first step ends
+        "goals": [{"x": -18 + (i % 10) * 4, "y": -18 + (i // 10) * 8} for i in range(50)],
+        "order": "any",
+        "bounds": {"xmin": -20, "xmax": 20, "ymin": -20, "ymax": 20},
+        "planner": {"search": "astar", "heuristic": "hff", "time_limit": 120},
+    }
+    with app_client(tmp_path, wall_limit=1.0) as c:
+        m = c.post("/missions", json=heavy).json()
+        m = wait_status(c, m["id"], ("succeeded", "failed", "cancelled"), timeout=30)
+        assert (m["status"], m["reason"]) == ("failed", "wall-clock limit: 1 s reached")
+        assert [t["status"] for t in m["transitions"]][-2:] == ["planning", "failed"]
+
+
 def test_database_failure_is_503_and_readyz_false_without_leaking(tmp_path: Path) -> None:
     with app_client(tmp_path) as c:
         assert c.get("/readyz").status_code == 200
