@@ -94,8 +94,12 @@ def test_arena_too_fine_for_the_planner_is_422(tmp_path: Path) -> None:
 
 def test_a_mission_over_the_wall_clock_limit_fails_with_that_reason(tmp_path: Path) -> None:
     with app_client(tmp_path, wall_limit=1.0) as c:
-        far = {**GOAL, "goals": [{"x": -4, "y": 4}], "speed": 0}  # unpaced, longer than 1 s
-        m = c.post("/missions", json=far).json()
+        spin = {  # unpaced turns in place for 30000 model s: far more than 1 s of wall time
+            "shape": "zigzag",
+            "chain": [{"primitive": "lat-zigzag-rp45p0", "until": {"duration": 30000}}],
+            "time_limit": 36000,
+        }
+        m = c.post("/missions", json=spin).json()
         m = wait_status(c, m["id"], ("succeeded", "failed", "cancelled"), timeout=30)
         assert (m["status"], m["reason"]) == ("failed", "wall-clock limit: 1 s reached")
 
