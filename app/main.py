@@ -7,9 +7,23 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
+from fastapi.middleware.cors import CORSMiddleware
 
-from app.api import errors, health, jobs, missions, primitives, replay, simulate, viewer, ws
+from app.api import (
+    errors,
+    faults,
+    health,
+    jobs,
+    limits,
+    missions,
+    primitives,
+    replay,
+    simulate,
+    viewer,
+    ws,
+)
 from app.api.deps import Services
+from app.api.limits import RequestGuard
 from app.service.hub import Hub
 from app.service.jobs import Jobs
 from app.service.metrics import Metrics
@@ -23,14 +37,16 @@ from primitives.library import Library, bundled_library_path
 
 def create_app(settings: Settings | None = None) -> FastAPI:
     config = settings or Settings.from_env()
+    db_health = faults.DbHealth()
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         engine = make_engine(config.database_url)
+        db_health.watch(engine)
         migrate(engine)
         store = Store(engine)
         path = config.library or bundled_library_path()
-        library = Library.load(path)
+        library = Library.load(path)  # once: missions get this copy, the file may go away
         version = store.record_library(library.to_json(), code_version(), len(library), str(path))
         metrics = Metrics()
         hub = Hub(config.ws_queue)
@@ -53,8 +69,21 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         version=code_version(),
         lifespan=lifespan,
     )
+    app.state.db_health = db_health
     errors.install(app)
+    faults.install(app, db_health)
+    limits.install(app)
     errors.document(app)
+    # Added last = runs first: CORS answers preflights, then the guard, before any body is read.
+    app.add_middleware(RequestGuard, settings=config)
+    if config.allowed_origins:
+        app.add_middleware(
+            CORSMiddleware,
+            allow_origins=config.allowed_origins,
+            allow_methods=["GET", "POST"],
+            allow_headers=["Authorization", "Content-Type", "Idempotency-Key"],
+            expose_headers=["Location", "Retry-After"],
+        )
     for module in (missions, replay, primitives, simulate, jobs, health, ws, viewer):
         app.include_router(module.router)
     return app

@@ -4,19 +4,35 @@ from __future__ import annotations
 
 import os
 from pathlib import Path
+from typing import Literal
 
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, Field, field_validator
 
 
 class Settings(BaseModel):
     database_url: str = "sqlite:///./var/screwsnake.db"
     library: Path | None = None  # None: the bundled library
-    api_key: str | None = None  # bearer token required for writes when set
+    api_key: str | None = None  # bearer token required (see `auth`) when set
+    auth: Literal["writes", "all"] = "writes"  # what the API key guards: writes, or everything
+    allowed_origins: list[str] = []  # browser origins allowed (CORS, websocket); same-origin always
     max_running: int = Field(4, ge=1, le=256)  # missions executing at once; the rest queue
+    max_queued: int = Field(1000, ge=0, le=1_000_000)  # waiting missions before POST answers 503
+    max_body: int = Field(1_000_000, ge=1024, le=1_000_000_000)  # request body bytes (else 413)
+    wall_limit: float = Field(3600.0, gt=0, le=7 * 86400)  # wall-clock seconds per mission
+    min_speed: float = Field(0.01, gt=0, le=10_000)  # slowest real-time pacing (0 = unpaced)
+    reconcile_seconds: float = Field(30.0, gt=0, le=86400)  # how often lost missions are ended
     ws_rate: float = Field(10.0, gt=0, le=200)  # state frames per second and client
     ws_queue: int = Field(
         256, ge=8, le=100_000
     )  # undeliverable event frames before a client is dropped
+
+    @field_validator("allowed_origins", mode="before")
+    @classmethod
+    def _comma_list(cls, value: object) -> object:
+        """``SCREWSNAKE_ALLOWED_ORIGINS=https://a.example,https://b.example``."""
+        if isinstance(value, str):
+            return [v.strip().rstrip("/") for v in value.split(",") if v.strip()]
+        return value
 
     @classmethod
     def from_env(cls) -> Settings:

@@ -12,7 +12,6 @@ from __future__ import annotations
 
 import itertools
 import math
-import threading
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass, field
@@ -25,7 +24,14 @@ from domain.lattice_cache import MotionCache
 from domain.lattice_distances import centroid_need, distance_map
 from domain.lattice_reach import Reachability
 from domain.lattice_task import Clearance, LatticeHeuristic, LatticeTask, primitive_name
-from domain.pyperplan_adapter import HEURISTICS, SEARCHES, PlanResult, SearchStopped
+from domain.pyperplan_adapter import (
+    HEURISTICS,
+    SEARCHES,
+    CancelFlag,
+    PlanResult,
+    SearchStopped,
+    stop_if_due,
+)
 from sim.robot import Array
 from sim.world import Bounds
 
@@ -171,7 +177,7 @@ class LatticePlanner:
         pose: Sequence[float],
         goals: Sequence[LegGoal],
         ordered: bool,
-        cancel: threading.Event | None = None,
+        cancel: CancelFlag | None = None,
         static: tuple[Clearance, Any] | None = None,
     ) -> LatticePlan:
         """A plan from ``pose`` through ``goals`` (in the given order, or the best found).
@@ -185,10 +191,23 @@ class LatticePlanner:
         start = self.key_of(table, pose)
         si, sj, _ = start
         here_xy = tuple(float(v) for v in self.grid.centre(si, sj))
-        maps = {
-            g.index: self.distances(table, clearance, version, g, (here_xy[0], here_xy[1]))
-            for g in goals
-        }
+        maps: dict[int, Array] = {}
+        try:  # preparing is planning too: inside the time limit, and cancellable
+            for g in goals:
+                stop_if_due(cancel, deadline)
+                maps[g.index] = self.distances(
+                    table, clearance, version, g, (here_xy[0], here_xy[1])
+                )
+        except SearchStopped as stop:
+            why = (
+                "planning cancelled"
+                if stop.status == "cancelled"
+                else f"planning timeout: the distance maps of {len(goals)} goals took longer "
+                f"than {self.time_limit:g} s to prepare"
+            )
+            done = LatticePlan(stop.status, why)
+            done.search_ms = (time.monotonic() - started) * 1e3
+            return done
         for g in goals:
             if not math.isfinite(maps[g.index][si, sj]):
                 return LatticePlan("unreachable", self._enclosed(table, g, pose, static))
@@ -241,7 +260,7 @@ class LatticePlanner:
         goal: LegGoal,
         first: bool,
         deadline: float,
-        cancel: threading.Event | None,
+        cancel: CancelFlag | None,
     ) -> LatticeTask:
         """The task of one leg: from ``start`` to the tracked point on ``goal``."""
         task = LatticeTask(

@@ -15,7 +15,6 @@ longest translation.
 from __future__ import annotations
 
 import math
-import threading
 from collections.abc import Callable
 from typing import Any
 
@@ -26,7 +25,7 @@ from pyperplan.task import Operator, Task
 
 from domain.lattice import Key, LatticeGrid, MotionTable
 from domain.lattice_cache import MotionCache
-from domain.pyperplan_adapter import Fact, stop_if_due
+from domain.pyperplan_adapter import CancelFlag, Fact, stop_if_due
 from sim.robot import Array
 
 Clearance = Callable[[Array], Array]  # clearance (m) at world points [N, 2]
@@ -82,7 +81,7 @@ class LatticeTask(Task):  # type: ignore[misc]
         self.goal_index = goal_index
         self.deadline = math.inf
         self.budget = math.inf  # expansions before the search stops (deterministic, unlike time)
-        self.cancel: threading.Event | None = None
+        self.cancel: CancelFlag | None = None
         self.expansions = 0
         self.edges: dict[
             int, list[tuple[int, str]]

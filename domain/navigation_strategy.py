@@ -11,7 +11,6 @@ primitive comes from its library entry; nothing probes a simulator or inverts th
 from __future__ import annotations
 
 import math
-import threading
 import time
 from dataclasses import dataclass
 from typing import Any
@@ -22,6 +21,7 @@ from domain.lattice import LatticeSettings, MotionTable, compose, motion_table, 
 from domain.lattice_pddl import lattice_domain, lattice_problem
 from domain.lattice_planner import LatticeAction, LatticePlan, LatticePlanner
 from domain.lattice_task import LatticeTask, primitive_name
+from domain.pyperplan_adapter import CancelFlag
 from domain.reshape import reshape_clear, reshape_duration
 from domain.strategy import Command, Replanned, Situation
 from domain.triggers import Contact, NoProgress, PathBlocked, ReplanRecord, Trigger
@@ -86,7 +86,7 @@ class NavigationStrategy:
 
     # -- PlanningStrategy ----------------------------------------------------------------------
     def replan(
-        self, situation: Situation, trigger: Trigger, cancel: threading.Event | None = None
+        self, situation: Situation, trigger: Trigger, cancel: CancelFlag | None = None
     ) -> Replanned:
         s = situation
         t0 = time.perf_counter()
@@ -135,7 +135,7 @@ class NavigationStrategy:
         table: MotionTable,
         s: Situation,
         pose: Any,
-        cancel: threading.Event | None,
+        cancel: CancelFlag | None,
     ) -> LatticePlan:
         """A lattice plan from ``pose``. Suspected surfaces (where a touched one probably goes
         on) are kept clear of while a way round them exists; only if none does are they
@@ -163,7 +163,7 @@ class NavigationStrategy:
         table: MotionTable,
         s: Situation,
         pose: Any,
-        cancel: threading.Event | None,
+        cancel: CancelFlag | None,
     ) -> MotionTable | None:
         """When the body's shape finds no plan: the nearest other library shape that can be
         taken here (its sweep keeps the margin) and finds one. The plan starts with the change;

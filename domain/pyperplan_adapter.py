@@ -12,12 +12,11 @@ heuristics. Three things are added around it:
 from __future__ import annotations
 
 import logging
-import threading
 import time
 from collections import defaultdict
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import Any, Literal, Protocol
 
 from pyperplan import grounding
 from pyperplan.heuristics.blind import BlindHeuristic
@@ -88,11 +87,17 @@ class Fact(str):
         return str.__eq__(self, other)
 
 
+class CancelFlag(Protocol):
+    """A threading or multiprocessing event: searches only read ``is_set``."""
+
+    def is_set(self) -> bool: ...
+
+
 def make_facts(names: Sequence[str]) -> list[Fact]:
     return [Fact(n, i) for i, n in enumerate(names)]
 
 
-def stop_if_due(cancel: threading.Event | None, deadline: float, over_budget: bool = False) -> None:
+def stop_if_due(cancel: CancelFlag | None, deadline: float, over_budget: bool = False) -> None:
     """Raise ``SearchStopped`` when the search is cancelled, past its deadline or its budget."""
     if cancel is not None and cancel.is_set():
         raise SearchStopped("cancelled")
@@ -121,7 +126,7 @@ class IndexedTask(Task):  # type: ignore[misc]
         )
         self.names = list(facts)
         self.deadline = float("inf")
-        self.cancel: threading.Event | None = None
+        self.cancel: CancelFlag | None = None
         self.expansions = 0
         self._reindex()
 
@@ -210,7 +215,7 @@ def search_task(
     search: str = "gbf",
     heuristic: str | Callable[[Task], Any] = "hff",
     time_limit: float = 5.0,
-    cancel: threading.Event | None = None,
+    cancel: CancelFlag | None = None,
 ) -> PlanResult:
     """Run a pyperplan search on ``task``: solved, unsolvable, timeout or cancelled."""
     check_names(search, heuristic if isinstance(heuristic, str) else None)

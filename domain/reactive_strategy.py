@@ -28,12 +28,12 @@ as the paper's planner evaluates "at every action interval" (§5.1.1):
 from __future__ import annotations
 
 import math
-import threading
 import time
 from typing import Any
 
 import numpy as np
 
+from domain.pyperplan_adapter import CancelFlag
 from domain.reactive import (
     ReactiveState,
     ReactiveStep,
@@ -193,7 +193,7 @@ class ReactiveStrategy:
 
     # -- PlanningStrategy ----------------------------------------------------------------------
     def replan(
-        self, situation: Situation, trigger: Trigger, cancel: threading.Event | None = None
+        self, situation: Situation, trigger: Trigger, cancel: CancelFlag | None = None
     ) -> Replanned:
         s = situation
         t0 = time.perf_counter()

@@ -10,11 +10,11 @@ reactive one (``domain.reactive_strategy``) is the paper's Table 3 domain.
 
 from __future__ import annotations
 
-import threading
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from domain.lattice_planner import LegGoal
+from domain.pyperplan_adapter import CancelFlag
 from domain.triggers import ReplanRecord, Trigger
 from domain.worldmodel import RangeObservation, WorldModel
 from sim.controls import Control
@@ -63,7 +63,7 @@ class PlanningStrategy(Protocol):
     name: str
 
     def replan(
-        self, situation: Situation, trigger: Trigger, cancel: threading.Event | None = None
+        self, situation: Situation, trigger: Trigger, cancel: CancelFlag | None = None
     ) -> Replanned:
         """A new plan from the situation (the first plan too), recorded with its trigger."""
         ...

@@ -4,12 +4,13 @@ from __future__ import annotations
 
 from typing import Any
 
-from fastapi import APIRouter
+from fastapi import APIRouter, Request
 from fastapi.responses import JSONResponse, Response
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 from sqlalchemy import text
 
 from app.api.deps import Svc
+from app.api.faults import DbHealth
 
 router = APIRouter(tags=["health"])
 
@@ -20,12 +21,17 @@ def livez() -> dict[str, str]:
 
 
 @router.get("/readyz", response_model=None)
-def readyz(svc: Svc) -> Any:
+def readyz(svc: Svc, request: Request) -> Any:
+    """Ready when the database answers and has not failed recently (see app.api.faults)."""
+    health: DbHealth = request.app.state.db_health
     try:
         with svc.store.engine.connect() as conn:
             conn.execute(text("SELECT 1"))
-    except Exception as exc:  # not ready: say why
-        return JSONResponse({"status": "unavailable", "database": str(exc)}, status_code=503)
+    except Exception as exc:  # not ready: say why (the kind only: no URL, no path)
+        health.failed(exc)
+    if not health.healthy:
+        body = {"status": "unavailable", "database": f"failed recently ({health.kind})"}
+        return JSONResponse(body, status_code=503)
     return {
         "status": "ok",
         "database": "ok",

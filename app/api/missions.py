@@ -7,6 +7,7 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Depends, Header, HTTPException, Query, Response
 
 from app.api.deps import Services, Svc, writer
+from app.api.limits import check_mission
 from app.api.schemas import (
     GoalOut,
     MissionOut,
@@ -19,6 +20,7 @@ from app.api.schemas import (
     TransitionOut,
 )
 from app.missions.spec import MissionSpec
+from app.service.supervisor import QueueFull
 from app.store.models import MissionRow
 
 router = APIRouter(tags=["missions"])
@@ -103,12 +105,15 @@ def create_mission(
 ) -> MissionOut:
     """Validate and store the mission, then queue it; a retried Idempotency-Key returns it again."""
     check_library(svc, spec)
+    check_mission(spec, svc.settings, svc.library)
+    if svc.supervisor.full():  # before the row: never a stored mission that cannot run
+        raise QueueFull()
     row, created = svc.store.create_mission(
         spec.name, spec.model_dump(mode="json", by_alias=True), idempotency_key
     )
     if created:
         svc.metrics.created.inc()
-        svc.supervisor.submit(row.id)
+        svc.supervisor.submit(row.id, force=True)
     else:
         response.status_code = (
             200 if row.request == spec.model_dump(mode="json", by_alias=True) else 409
@@ -213,7 +218,9 @@ def get_pddl(mission_id: str, svc: Svc) -> list[PddlOut]:
 
 @router.get("/missions/{mission_id}/tree")
 def get_tree(mission_id: str, svc: Svc) -> dict[str, Any]:
-    """The latest behaviour-tree snapshot the mission broadcast (empty before it runs)."""
-    found(svc, mission_id)
-    tree: dict[str, Any] = svc.hub.last_tree.get(mission_id, {})
+    """The latest behaviour-tree snapshot the mission broadcast (empty before it runs); an
+    ended mission's comes from the store."""
+    row = found(svc, mission_id)
+    live = svc.hub.last_tree.get(mission_id)
+    tree: dict[str, Any] = live if live is not None else (row.state or {}).get("tree", {})
     return tree

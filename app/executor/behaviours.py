@@ -265,7 +265,7 @@ class Replan(MissionBehaviour):
             ctx.failure = f"no progress: gave up after {ctx.spec.max_replans} replans"
             return Status.FAILURE
         trigger = ctx.trigger or Initial()
-        out = ctx.strategy.replan(ctx.situation(), trigger)
+        out = ctx.strategy.replan(ctx.situation(), trigger, ctx.cancel)
         ctx.replans.append(out.record)
         ctx.plan_version += 1
         ctx.pddl.append(

@@ -14,6 +14,7 @@ from typing import Any
 from app.executor.robot import Observation, Robot
 from app.missions.spec import MissionSpec
 from domain.lattice_planner import LegGoal
+from domain.pyperplan_adapter import CancelFlag
 from domain.strategy import PlanningStrategy, Situation
 from domain.triggers import ReplanRecord, Trigger
 from domain.worldmodel import WorldModel
@@ -73,6 +74,7 @@ class MissionContext:
     chain_started: float = 0.0
     chain_entry_pose: tuple[float, float, float] | None = None
     executed: list[dict[str, Any]] = field(default_factory=list)
+    cancel: CancelFlag | None = None  # the mission's cancel flag, passed to the planner
 
     @property
     def t(self) -> float:

@@ -12,7 +12,7 @@ import math
 import threading
 import time
 from collections.abc import Callable
-from typing import Any, Protocol
+from typing import Any
 
 import numpy as np
 import py_trees
@@ -25,6 +25,7 @@ from app.missions.spec import MissionSpec
 from domain.lattice import LatticeSettings
 from domain.lattice_planner import LatticePlanner
 from domain.navigation_strategy import NavigationStrategy
+from domain.pyperplan_adapter import CancelFlag
 from domain.reactive_strategy import ReactiveStrategy
 from domain.strategy import PlanningStrategy
 from domain.worldmodel import WorldModel
@@ -37,12 +38,6 @@ TRAJECTORY_POINTS = 2000
 _ids = itertools.count()
 
 TickHook = Callable[[MissionContext, dict[str, Any]], None]
-
-
-class CancelFlag(Protocol):
-    """A threading or multiprocessing event: only ``is_set`` is needed."""
-
-    def is_set(self) -> bool: ...
 
 
 class MissionError(ValueError):
@@ -98,6 +93,7 @@ class MissionRunner:
         except ValueError as exc:
             raise MissionError(str(exc)) from exc
         self.ctx = self._context(spec, library, self.robot)
+        self.ctx.cancel = self.cancel  # the planner stops its search when it is set
         self._writer = py_trees.blackboard.Client(name="runner", namespace=self.namespace)
         self._writer.register_key("context", access=Access.WRITE)
         self._writer.context = self.ctx
@@ -152,6 +148,8 @@ class MissionRunner:
             self.tree.tick_once()
             if self.tree.status != Status.RUNNING or ctx.command is not None:
                 break
+        if self.cancel.is_set():  # a cancel during planning ends the mission as cancelled
+            return self._finish("cancelled", "cancelled by request")
         if self.tree.status == Status.SUCCESS:
             return self._finish(
                 "succeeded", "all goals reached" if ctx.goals else "chain completed"
@@ -179,6 +177,11 @@ class MissionRunner:
         while not self.step():
             pass
         return self.result()
+
+    def abort(self, status: str, reason: str) -> None:
+        """End the mission from outside the tree (e.g. a wall-clock limit)."""
+        if not self.done:
+            self._finish(status, reason)
 
     def _finish(self, status: str, reason: str) -> bool:
         self.status, self.reason = status, reason

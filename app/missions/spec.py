@@ -23,7 +23,8 @@ from pydantic import (
 )
 from pydantic import Strict as StrictNumber  # no bool or string coerced into a number
 
-from primitives.shapes import SHAPES, shape_named
+from domain.lattice import LatticeSettings
+from primitives.shapes import FIXED_SHAPES, SHAPES, classify_shape, shape_named
 from sim.obstacles import Obstacle, obstacle_from_dict
 from sim.robot import DEFAULT_GEOMETRY
 from sim.world import Bounds, World, footprint
@@ -35,6 +36,7 @@ MAX_OBSTACLES = 200
 MAX_EVENTS = 20
 MAX_CHAIN = 50
 ARENA_LIMIT = 500.0  # metres from the origin
+MAX_ARENA_CELLS = 1_000_000  # lattice cells: bounds planning memory and each distance map's time
 Coord = Annotated[
     float, StrictNumber(), Field(allow_inf_nan=False, ge=-ARENA_LIMIT, le=ARENA_LIMIT)
 ]
@@ -107,6 +109,13 @@ class BoundsSpec(Strict):
     def _ordered(self) -> BoundsSpec:
         if self.xmin >= self.xmax or self.ymin >= self.ymax:
             raise ValueError("need xmin < xmax and ymin < ymax")
+        r = LatticeSettings().resolution
+        cells = math.ceil((self.xmax - self.xmin) / r) * math.ceil((self.ymax - self.ymin) / r)
+        if cells > MAX_ARENA_CELLS:
+            raise ValueError(
+                f"the arena has {cells} planning cells of {r:g} m; at most {MAX_ARENA_CELLS} "
+                "(e.g. 50 m x 50 m): each planning map covers the whole arena"
+            )
         return self
 
     def bounds(self) -> Bounds:
@@ -317,7 +326,8 @@ class ChainStep(Strict):
 
 
 class MissionSpec(Strict):
-    name: Annotated[str, Field(max_length=120)] = "mission"
+    # No NUL: PostgreSQL cannot store it in a text column.
+    name: Annotated[str, Field(max_length=120, pattern=r"^[^\x00]*$")] = "mission"
     start: Pose = Pose()
     shape: str | JointsShape = "straight"
     goals: Annotated[list[GoalSpec], Field(max_length=MAX_GOALS)] = []
@@ -346,6 +356,18 @@ class MissionSpec(Strict):
             raise ValueError("chain: give goals or a chain of primitives, not both")
         if isinstance(self.shape, str) and self.shape not in SHAPES:
             raise ValueError(f"shape: unknown {self.shape!r}; known: {', '.join(SHAPES)}")
+        if isinstance(self.shape, JointsShape) and classify_shape(self.shape.joints) is None:
+            raise ValueError(
+                f"shape.joints: {list(self.shape.joints)} match no library shape (each joint "
+                f"within 0.15 rad of one of {', '.join(FIXED_SHAPES)})"
+            )
+        for i, step in enumerate(self.chain):
+            name = step.until.sensor
+            if name is not None and not _range_sensor(name, self.sensors.ring):
+                raise ValueError(
+                    f"chain.{i}.until.sensor: no range sensor {name!r} (ir, "
+                    f"ring0..ring{self.sensors.ring - 1})"
+                )
         for i, event in enumerate(self.events):
             if isinstance(event, DropoutEvent):
                 for name in event.sensors:
@@ -406,6 +428,11 @@ class MissionSpec(Strict):
 
     def shape_name(self) -> str:
         return self.shape if isinstance(self.shape, str) else "custom"
+
+
+def _range_sensor(name: str, ring: int) -> bool:
+    """``ir`` or ``ring<k>`` with k below the ring's size: the sensors a chain can wait on."""
+    return name == "ir" or (_RING_NAME.fullmatch(name) is not None and int(name[4:]) < ring)
 
 
 def _xy(x: float, y: float) -> Any:

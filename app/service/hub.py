@@ -74,6 +74,8 @@ class Hub:
     def publish(self, mission_id: str, frame: Frame) -> None:
         if frame.get("type") == "state" and "tree" in frame:
             self.last_tree[mission_id] = frame["tree"]
+        elif frame.get("type") == "end":  # the store keeps the last tree from here on
+            self.last_tree.pop(mission_id, None)
         for channel in list(self.channels.get(mission_id, ())):
             channel.offer(frame)
 

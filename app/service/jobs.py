@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -72,7 +73,10 @@ class Jobs:
             self.metrics.jobs.labels("cancelled").inc()
             return
         except Exception as exc:  # record it: a job always ends with a reason
-            self.store.update_job(job_id, status="failed", reason=f"{type(exc).__name__}: {exc}")
+            # A ValueError explains the request; anything else may name server paths.
+            why = f": {exc}" if isinstance(exc, ValueError) else " (see the server log)"
+            logging.getLogger("screwsnake.jobs").exception("job %s failed", job_id)
+            self.store.update_job(job_id, status="failed", reason=f"{type(exc).__name__}{why}")
             self.metrics.jobs.labels("failed").inc()
             return
         theta, joints, phases = space.split(result.params)

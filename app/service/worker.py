@@ -11,10 +11,8 @@ import contextlib
 import os
 import threading
 import time
-from functools import cache
 from multiprocessing.queues import Queue
 from multiprocessing.synchronize import Event
-from pathlib import Path
 from typing import Any
 
 from app.executor.runner import MissionError, MissionRunner
@@ -24,12 +22,8 @@ from primitives.library import Library
 WORKER_NICENESS = 10
 STATE_SAVE_SECONDS = 1.0  # wall seconds between state writes of a running mission
 EVENTS_KEPT = 1000  # events kept in a mission's stored state (the newest)
+PACE_SLICE = 0.25  # longest wait while pacing: cancels and the wall clock are checked between
 Message = tuple[Any, ...]
-
-
-@cache
-def cached_library(path: str) -> Library:
-    return Library.load(Path(path))
 
 
 def mission_state(runner: MissionRunner) -> dict[str, Any]:
@@ -94,11 +88,12 @@ def watch_server(server_pid: int, period: float = 1.0) -> None:
 def run_mission_process(
     mission_id: str,
     request: dict[str, Any],
-    library_path: str,
+    library: Library,
     ws_rate: float,
     queue: Queue[Message],
     cancel: Event,
     server_pid: int,
+    wall_limit: float = float("inf"),
 ) -> None:
     """The process target: run the mission, report through ``queue``, always end with ("end", ...)."""
     threading.Thread(
@@ -107,21 +102,22 @@ def run_mission_process(
     with contextlib.suppress(OSError):
         os.nice(WORKER_NICENESS)  # the API process keeps priority: requests stay fast under load
     try:
-        _run(mission_id, request, library_path, ws_rate, queue, cancel)
-    except Exception as exc:  # report, never die silently
-        queue.put(("end", "failed", f"internal error: {type(exc).__name__}: {exc}", None))
+        _run(mission_id, request, library, ws_rate, queue, cancel, wall_limit)
+    except Exception as exc:  # report, never die silently (and never with a server path)
+        queue.put(("end", "failed", f"server error ({type(exc).__name__})", None))
 
 
 def _run(
     mission_id: str,
     request: dict[str, Any],
-    library_path: str,
+    library: Library,
     ws_rate: float,
     queue: Queue[Message],
     cancel: Event,
+    wall_limit: float,
 ) -> None:
+    begun = time.perf_counter()  # the wall-clock limit counts planning too
     spec = MissionSpec.model_validate(request)
-    library = cached_library(library_path)
     queue.put(("transition", "planning", "", None))
     try:
         runner = MissionRunner(spec, library, mission_id=mission_id.replace("-", ""), cancel=cancel)
@@ -144,6 +140,9 @@ def _run(
         events_sent = len(ctx.events)
         if done:
             break
+        if time.perf_counter() - begun > wall_limit:
+            runner.abort("failed", f"wall-clock limit: {wall_limit:g} s reached")
+            break
         if not executing:
             queue.put(("transition", "executing", "", mission_state(runner)))
             executing = True
@@ -157,6 +156,6 @@ def _run(
         if spec.speed > 0:  # pace model time against the wall clock
             ahead = ctx.t / spec.speed - (time.perf_counter() - started)
             if ahead > 0:
-                cancel.wait(ahead)
+                cancel.wait(min(ahead, PACE_SLICE))
     queue.put(("trajectory", runner.trajectory()))
     queue.put(("end", runner.status, runner.reason, mission_state(runner)))

@@ -145,14 +145,18 @@ class Store:
             s.commit()
             return [r.id for r in rows]
 
-    def queued(self) -> list[str]:
+    def queued(self, before: datetime | None = None) -> list[str]:
+        """Queued missions, oldest first (only those created before ``before`` if given)."""
         with self.sessions() as s:
-            q = (
-                select(MissionRow.id)
-                .where(MissionRow.status == "queued")
-                .order_by(MissionRow.created_at)
-            )
-            return list(s.scalars(q))
+            q = select(MissionRow.id).where(MissionRow.status == "queued")
+            if before is not None:
+                q = q.where(MissionRow.created_at < before)
+            return list(s.scalars(q.order_by(MissionRow.created_at)))
+
+    def active(self) -> list[str]:
+        """Missions a worker should be running (planning, executing, replanning, cancelling)."""
+        with self.sessions() as s:
+            return list(s.scalars(select(MissionRow.id).where(MissionRow.status.in_(ACTIVE))))
 
     # -- plans, replans, trajectories ----------------------------------------------------------
     def add_plan(

@@ -1,0 +1,194 @@
+"""The request guard, an ASGI middleware that runs before any body is read.
+
+In order: NUL characters in the path or query (422: PostgreSQL rejects them), the API key
+policy (401, before the body is read, so an unauthenticated upload costs nothing), the
+websocket Origin check (403), and the body size limit (413 from Content-Length, or while the
+body streams in). Answers are problem+json from ``app.api.errors``.
+"""
+
+from __future__ import annotations
+
+import secrets
+from typing import Any, NoReturn
+from urllib.parse import parse_qs, unquote, urlsplit
+
+from fastapi import FastAPI, HTTPException, Request
+from fastapi.exceptions import RequestValidationError
+from fastapi.responses import JSONResponse
+from starlette.types import ASGIApp, Message, Receive, Scope, Send
+
+from app.api.errors import problem
+from app.missions.spec import MissionSpec
+from app.service.supervisor import QueueFull
+from app.settings import Settings
+from primitives.library import Library
+from primitives.shapes import classify_shape
+
+SAFE_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
+# Computation, not a write: guarded only under SCREWSNAKE_AUTH=all.
+UNGUARDED_WRITES = frozenset({"/simulate"})
+# Probes, the viewer page and the API docs stay open under SCREWSNAKE_AUTH=all.
+OPEN_PATHS = frozenset({"/", "/livez", "/readyz", "/docs", "/docs/oauth2-redirect", "/redoc"})
+OPEN_PATHS |= {"/openapi.json"}
+BUSY_RETRY_AFTER = 10  # seconds a client should wait when the queue is full
+
+
+def _header(scope: Scope, name: bytes) -> bytes | None:
+    for key, value in scope.get("headers", ()):
+        if key == name:
+            return bytes(value)
+    return None
+
+
+def needs_key(settings: Settings, scope: Scope) -> bool:
+    """Whether this request must carry the API key under the configured policy."""
+    if settings.api_key is None:
+        return False
+    path = scope.get("path", "")
+    if settings.auth == "all":
+        return path not in OPEN_PATHS
+    if scope["type"] == "websocket":
+        return False
+    return scope.get("method", "GET") not in SAFE_METHODS and path not in UNGUARDED_WRITES
+
+
+def given_key(scope: Scope) -> bytes | None:
+    """The bearer token of ``Authorization``; for websockets also ``?token=`` (browsers
+    cannot set headers on a websocket)."""
+    header = _header(scope, b"authorization")
+    if header is not None:
+        scheme, _, token = header.partition(b" ")
+        return token.strip() if scheme.lower() == b"bearer" else None
+    if scope["type"] == "websocket":
+        query = parse_qs(scope.get("query_string", b"").decode("latin-1"))
+        if "token" in query:
+            return str(query["token"][0]).encode("latin-1")
+    return None
+
+
+def key_ok(settings: Settings, scope: Scope) -> bool:
+    key = settings.api_key
+    given = given_key(scope)
+    # Bytes, not str: compare_digest refuses non-ASCII strings.
+    return key is not None and given is not None and secrets.compare_digest(given, key.encode())
+
+
+def origin_ok(settings: Settings, scope: Scope) -> bool:
+    """No Origin (not a browser), an allowed origin, or the server's own (same-origin)."""
+    raw = _header(scope, b"origin")
+    if raw is None:
+        return True
+    origin = raw.decode("latin-1").rstrip("/")
+    if origin in settings.allowed_origins or "*" in settings.allowed_origins:
+        return True
+    host = (_header(scope, b"host") or b"").decode("latin-1")
+    return bool(host) and urlsplit(origin).netloc == host
+
+
+def has_nul(scope: Scope) -> bool:
+    query = unquote(scope.get("query_string", b"").decode("latin-1"))
+    return "\x00" in scope.get("path", "") or "\x00" in query
+
+
+class RequestGuard:
+    """Reject what must not reach the app: NUL ids, missing keys, foreign origins, big bodies."""
+
+    def __init__(self, app: ASGIApp, settings: Settings) -> None:
+        self.app, self.settings = app, settings
+
+    async def __call__(self, scope: Scope, receive: Receive, send: Send) -> None:
+        if scope["type"] not in ("http", "websocket"):
+            await self.app(scope, receive, send)
+            return
+        websocket = scope["type"] == "websocket"
+        refusal = self._refusal(scope)
+        if refusal is not None:
+            status, title, detail, extra = refusal
+            if websocket:  # closing before accept: the handshake is refused (HTTP 403)
+                await send({"type": "websocket.close", "code": 4000 + status, "reason": title})
+                return
+            headers = {"WWW-Authenticate": "Bearer"} if status == 401 else {}
+            response = problem(status, title, detail, **extra)
+            response.headers.update(headers)
+            await response(scope, receive, send)
+            return
+        if websocket or scope.get("method") in ("GET", "HEAD"):
+            await self.app(scope, receive, send)
+            return
+        await self.app(scope, self._counted(receive), send)
+
+    def _refusal(self, scope: Scope) -> tuple[int, str, str, dict[str, Any]] | None:
+        s = self.settings
+        if has_nul(scope):
+            detail = "path: NUL characters are not allowed in ids or queries"
+            return 422, "Invalid request", detail, {"field": "path"}
+        if needs_key(s, scope) and not key_ok(s, scope):
+            what = "every request" if s.auth == "all" else "writes"
+            return 401, "Unauthorized", f"a valid API key is required for {what}", {}
+        if scope["type"] == "websocket" and not origin_ok(s, scope):
+            return 403, "Forbidden", "this Origin is not allowed", {}
+        length = _header(scope, b"content-length")
+        if length is not None and (not length.isdigit() or int(length) > s.max_body):
+            detail = f"the request body is limited to {s.max_body} bytes"
+            return 413, "Request body too large", detail, {}
+        return None
+
+    def _counted(self, receive: Receive) -> Receive:
+        """``receive`` that stops a body streaming past the limit (no Content-Length)."""
+        limit, seen = self.settings.max_body, 0
+
+        async def counted() -> Message:
+            nonlocal seen
+            message = await receive()
+            if message["type"] == "http.request":
+                seen += len(message.get("body", b""))
+                if seen > limit:
+                    raise HTTPException(413, f"the request body is limited to {limit} bytes")
+            return message
+
+        return counted
+
+
+def check_mission(spec: MissionSpec, settings: Settings, library: Library) -> None:
+    """What depends on the server: its library covers the body shape (422 naming ``shape``),
+    and the speed fits its wall-clock limit (422 naming ``speed``)."""
+    if spec.goals and spec.planner.domain == "navigation":
+        shape = spec.shape_name()
+        if shape == "custom":  # the spec made sure it classifies
+            shape = classify_shape(spec.start_joints()) or shape
+        if shape not in library.lattice_shapes():
+            invalid(
+                "shape",
+                f"the library has no lattice primitives for {shape!r} to plan with; "
+                f"shapes it has: {', '.join(library.lattice_shapes())}",
+            )
+    if spec.speed == 0:
+        return  # unpaced: only the wall-clock limit applies, while it runs
+    if spec.speed < settings.min_speed:
+        invalid("speed", f"0 (as fast as possible) or at least {settings.min_speed:g}")
+    if spec.time_limit / spec.speed > settings.wall_limit:
+        invalid(
+            "speed",
+            f"time_limit / speed = {spec.time_limit / spec.speed:g} wall seconds exceeds the "
+            f"server's wall-clock limit of {settings.wall_limit:g} s: raise speed or lower "
+            "time_limit",
+        )
+
+
+def invalid(field: str, message: str) -> NoReturn:
+    """A 422 problem naming ``field``, in the same shape as the request validation errors."""
+    raise RequestValidationError(
+        [{"loc": ("body", *field.split(".")), "msg": message, "type": "value_error"}]
+    )
+
+
+def install(app: FastAPI) -> None:
+    """A full queue is a 503 with Retry-After, never a 500."""
+
+    async def _busy(_: Request, exc: Exception) -> JSONResponse:
+        detail = "too many missions are waiting; retry later"
+        response = problem(503, "Service busy", detail)
+        response.headers["Retry-After"] = str(BUSY_RETRY_AFTER)
+        return response
+
+    app.add_exception_handler(QueueFull, _busy)
