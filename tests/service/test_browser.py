@@ -94,7 +94,7 @@ def test_viewer_posts_a_mission_and_shows_its_end(server: str, browser: Any) -> 
     status_is(page, "succeeded")
     status = page.inner_text("#status")
     assert "fig9b-obstacles" in status and "succeeded" in status and "✓" in status
-    assert "po1 straight" in page.inner_text("#plan")
+    assert "straight-g" in page.inner_text("#plan")  # the paper primitives PO1 runs
     assert page.locator("#missions li").count() == 1
     shot(page, "viewer.png")
     assert page.errors == []
