@@ -84,12 +84,11 @@ class Reachability:
 
     def reaches(self, start: Key, goal: tuple[float, float], reach: float) -> bool:
         """``False`` only when no lattice plan can bring the head within ``reach`` of ``goal``
-        from ``start`` (``True`` when one may, or when the start itself fails the test: a
-        robot touching something)."""
-        si, sj, sk = start
-        if not self.free[sk, si, sj]:
+        from ``start`` (``True`` when one may, or when no configuration at the start passes
+        the test: a robot touching something)."""
+        mine = self._components_at(start)
+        if mine.size == 0:
             return True
-        mine = self.component[self.labels[sk, si, sj]]
         grid = self.grid
         r = grid.settings.resolution
         xs = grid.bounds.xmin + (np.arange(grid.nx) + 0.5) * r
@@ -99,6 +98,23 @@ class Reachability:
             hx, hy = self.table.pose_of_centroid(np.zeros(2), k)[:2]
             near = np.hypot(xs[:, None] + hx - goal[0], ys[None, :] + hy - goal[1])
             mask = (near <= reach + slack) & self.free[k]
-            if np.any(self.component[self.labels[k][mask]] == mine):
+            if np.any(np.isin(self.component[self.labels[k][mask]], mine)):
                 return True
         return False
+
+    def _components_at(self, start: Key) -> NDArray[np.intp]:
+        """The components of the free configurations at ``start`` or, when the snapped state
+        itself fails the test (the robot stands closer to something than the margin), next to
+        it: one cell and one orientation step around, where the real pose lies."""
+        si, sj, sk = start
+        K, nx, ny = self.free.shape
+        found = []
+        for dk in (0, -1, 1):
+            for di in (0, -1, 1):
+                for dj in (0, -1, 1):
+                    k, i, j = (sk + dk) % K, si + di, sj + dj
+                    if 0 <= i < nx and 0 <= j < ny and self.free[k, i, j]:
+                        found.append(self.component[self.labels[k, i, j]])
+            if found and dk == 0:
+                break  # the start's own orientation decides when it can
+        return np.unique(np.asarray(found, dtype=np.intp))

@@ -182,8 +182,8 @@ class NavigationStrategy:
             ):
                 continue
             plan = self._plan(other, s, pose, cancel)
-            if not plan.solved:
-                continue
+            if not plan.solved or plan.partial:
+                continue  # change shape only for a way all the way there
             target = (float(pose[0]), float(pose[1]), float(pose[2]))
             change = LatticeAction(
                 "reshape",
