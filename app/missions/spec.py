@@ -24,7 +24,8 @@ from pydantic import (
 from pydantic import Strict as StrictNumber  # no bool or string coerced into a number
 
 from domain.lattice import LatticeSettings
-from primitives.shapes import FIXED_SHAPES, SHAPES, classify_shape, shape_named
+from primitives.coverage import covers
+from primitives.shapes import FIXED_SHAPES, SHAPES, shape_named
 from sim.obstacles import Obstacle, obstacle_from_dict
 from sim.robot import DEFAULT_GEOMETRY
 from sim.world import Bounds, World, footprint
@@ -356,10 +357,13 @@ class MissionSpec(Strict):
             raise ValueError("chain: give goals or a chain of primitives, not both")
         if isinstance(self.shape, str) and self.shape not in SHAPES:
             raise ValueError(f"shape: unknown {self.shape!r}; known: {', '.join(SHAPES)}")
-        if isinstance(self.shape, JointsShape) and classify_shape(self.shape.joints) is None:
+        if (
+            isinstance(self.shape, JointsShape)
+            and covers(self.shape.joints, FIXED_SHAPES).kind == "none"
+        ):
             raise ValueError(
-                f"shape.joints: {list(self.shape.joints)} match no library shape (each joint "
-                f"within 0.15 rad of one of {', '.join(FIXED_SHAPES)})"
+                f"shape.joints: {list(self.shape.joints)} is a shape the library does not cover "
+                f"(no joint-wise match within 0.15 rad of, nor blend of, {', '.join(FIXED_SHAPES)})"
             )
         for i, step in enumerate(self.chain):
             name = step.until.sensor

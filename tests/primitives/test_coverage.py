@@ -4,6 +4,7 @@ tolerance, or interpolable between library shapes (Figs. 8 and 13b), or none."""
 import math
 
 import pytest
+from pydantic import ValidationError
 
 from primitives.coverage import JOINT_TOLERANCE, covers
 from primitives.library import Library, load_bundled
@@ -57,7 +58,17 @@ def test_a_mission_starting_in_a_blended_shape_runs_its_nearest_library_shape() 
         MissionSpec.model_validate({**base, "shape": {"joints": [0.25, -0.25, -0.05]}}), LIB
     )
     assert ok.ctx.shape in ("straight", "semi-zigzag")
+    # A shape no library shape covers is refused when the mission is posted, naming the field.
+    with pytest.raises(ValidationError, match=r"shape\.joints"):
+        MissionSpec.model_validate({**base, "shape": {"joints": [1.2, 1.2, 1.2]}})
+    # ... and by the runner for a library that lacks the shapes (a spec built without checks).
+    spec = MissionSpec.model_validate(base).model_copy(
+        update={
+            "shape": MissionSpec.model_validate(
+                {**base, "shape": {"joints": [0.25, -0.25, -0.05]}}
+            ).shape
+        }
+    )
+    only_arc = Library([e for e in LIB if e.shape == "arc"])
     with pytest.raises(MissionError, match="not interpolable"):
-        MissionRunner(
-            MissionSpec.model_validate({**base, "shape": {"joints": [1.2, 1.2, 1.2]}}), LIB
-        )
+        MissionRunner(spec, only_arc)
