@@ -7,8 +7,20 @@ from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
+from fastapi_offline import FastAPIOffline
 
-from app.api import errors, health, jobs, missions, primitives, simulate, viewer, ws
+from app.api import (
+    docs,
+    errors,
+    health,
+    jobs,
+    missions,
+    primitives,
+    simulate,
+    updates,
+    viewer,
+    ws,
+)
 from app.api.deps import Services
 from app.service.hub import Hub
 from app.service.jobs import Jobs
@@ -47,15 +59,19 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             learning.stop()
             engine.dispose()
 
-    app = FastAPI(
+    # Swagger UI and ReDoc from the installed fastapi-offline package: the docs work offline.
+    app = FastAPIOffline(
         title="screwsnake",
         summary="Goal-directed locomotion of a screw-drive snake robot: missions, plans, primitives.",
+        description=docs.DESCRIPTION,
         version=code_version(),
         lifespan=lifespan,
+        openapi_tags=docs.TAGS,
+        static_url="/docs-assets",
     )
     errors.install(app)
     errors.document(app)
-    for module in (missions, primitives, simulate, jobs, health, ws, viewer):
+    for module in (missions, updates, primitives, simulate, jobs, health, ws, viewer, docs):
         app.include_router(module.router)
     return app
 

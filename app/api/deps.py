@@ -6,9 +6,10 @@ import secrets
 from dataclasses import dataclass
 from typing import Annotated
 
-from fastapi import Depends, HTTPException, Request
+from fastapi import Depends, Request
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
+from app.api.errors import ApiError
 from app.service.hub import Hub
 from app.service.jobs import Jobs
 from app.service.metrics import Metrics
@@ -49,6 +50,6 @@ def writer(
     # Bytes, not str: compare_digest refuses non-ASCII strings (a 500 on a stray header byte).
     given = credentials.credentials.encode("utf-8", "surrogateescape") if credentials else None
     if given is None or not secrets.compare_digest(given, key.encode("utf-8")):
-        raise HTTPException(
+        raise ApiError(
             401, "a valid API key is required for writes", headers={"WWW-Authenticate": "Bearer"}
         )

@@ -5,11 +5,12 @@ from __future__ import annotations
 from typing import Any
 
 from fastapi import APIRouter
-from fastapi.responses import JSONResponse, Response
+from fastapi.responses import Response
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 from sqlalchemy import text
 
 from app.api.deps import Svc
+from app.api.errors import PROBLEM, problem
 
 router = APIRouter(tags=["health"])
 
@@ -19,13 +20,23 @@ def livez() -> dict[str, str]:
     return {"status": "ok"}
 
 
-@router.get("/readyz", response_model=None)
+@router.get(
+    "/readyz",
+    response_model=None,
+    responses={
+        503: {
+            "description": "Not ready: the database cannot be reached (the detail says why)",
+            "content": {PROBLEM: {"schema": {"$ref": "#/components/schemas/Problem"}}},
+        }
+    },
+)
 def readyz(svc: Svc) -> Any:
+    """Ready when the database answers; says which library is loaded."""
     try:
         with svc.store.engine.connect() as conn:
             conn.execute(text("SELECT 1"))
     except Exception as exc:  # not ready: say why
-        return JSONResponse({"status": "unavailable", "database": str(exc)}, status_code=503)
+        return problem(503, f"database unavailable: {exc}")
     return {
         "status": "ok",
         "database": "ok",

@@ -4,9 +4,11 @@ from __future__ import annotations
 
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Depends, Header, HTTPException, Query, Response
+from fastapi import APIRouter, Body, Depends, Header, Query, Response
 
 from app.api.deps import Services, Svc, writer
+from app.api.errors import ApiError, responses
+from app.api.examples import mission_examples
 from app.api.schemas import (
     GoalOut,
     MissionOut,
@@ -19,19 +21,10 @@ from app.api.schemas import (
     TransitionOut,
 )
 from app.missions.spec import MissionSpec
+from app.missions.status import TERMINAL, MissionStatus
 from app.store.models import MissionRow
 
 router = APIRouter(tags=["missions"])
-STATUSES = (
-    "queued",
-    "planning",
-    "executing",
-    "replanning",
-    "cancelling",
-    "succeeded",
-    "failed",
-    "cancelled",
-)
 
 
 def resource(svc: Services, row: MissionRow) -> MissionOut:
@@ -50,11 +43,11 @@ def resource(svc: Services, row: MissionRow) -> MissionOut:
     return MissionOut(
         id=row.id,
         name=row.name,
-        status=row.status,
+        status=MissionStatus(row.status),
         reason=row.reason,
         created_at=row.created_at,
         transitions=[
-            TransitionOut(status=t.status, at=t.at, reason=t.reason)
+            TransitionOut(status=MissionStatus(t.status), at=t.at, reason=t.reason)
             for t in svc.store.transitions(row.id)
         ],
         goals=[GoalOut.model_validate(g) for g in goals],
@@ -69,7 +62,7 @@ def resource(svc: Services, row: MissionRow) -> MissionOut:
 def found(svc: Services, mission_id: str) -> MissionRow:
     row = svc.store.get_mission(mission_id)
     if row is None:
-        raise HTTPException(404, f"mission {mission_id} not found")
+        raise ApiError(404, f"mission {mission_id} not found")
     return row
 
 
@@ -83,14 +76,27 @@ def check_library(svc: Services, spec: MissionSpec) -> None:
         )
         for name in names:
             if name not in svc.library:
-                raise HTTPException(422, f"chain.{i}: primitive {name!r} is not in the library")
+                raise ApiError(
+                    422, f"chain.{i}: primitive {name!r} is not in the library", f"chain.{i}"
+                )
 
 
 @router.post(
-    "/missions", status_code=201, response_model=MissionOut, dependencies=[Depends(writer)]
+    "/missions",
+    status_code=201,
+    response_model=MissionOut,
+    dependencies=[Depends(writer)],
+    responses={
+        201: {"description": "Created and queued; `Location` is its URL"},
+        200: {
+            "model": MissionOut,
+            "description": "A replay: this `Idempotency-Key` created this same mission before",
+        },
+        **responses(401, 409, 422),
+    },
 )
 def create_mission(
-    spec: MissionSpec,
+    spec: Annotated[MissionSpec, Body(openapi_examples=mission_examples())],
     response: Response,
     svc: Svc,
     idempotency_key: Annotated[str | None, Header(max_length=200)] = None,
@@ -108,15 +114,21 @@ def create_mission(
             200 if row.request == spec.model_dump(mode="json", by_alias=True) else 409
         )
         if response.status_code == 409:
-            raise HTTPException(409, "Idempotency-Key was used for a different mission")
+            raise ApiError(
+                409,
+                f"Idempotency-Key was used for a different mission ({row.id})",
+                "Idempotency-Key",
+            )
     response.headers["Location"] = f"/missions/{row.id}"
     return resource(svc, row)
 
 
-@router.get("/missions", response_model=MissionPage)
+@router.get("/missions", response_model=MissionPage, responses=responses(422))
 def list_missions(
     svc: Svc,
-    status: Annotated[str | None, Query(pattern="^(" + "|".join(STATUSES) + ")$")] = None,
+    status: Annotated[
+        MissionStatus | None, Query(description="only missions in this status")
+    ] = None,
     limit: Annotated[int, Query(ge=1, le=200)] = 50,
     offset: Annotated[int, Query(ge=0, le=10**9)] = 0,
 ) -> MissionPage:
@@ -126,7 +138,7 @@ def list_missions(
     )
 
 
-@router.get("/missions/{mission_id}", response_model=MissionOut)
+@router.get("/missions/{mission_id}", response_model=MissionOut, responses=responses(404))
 def get_mission(mission_id: str, svc: Svc) -> MissionOut:
     return resource(svc, found(svc, mission_id))
 
@@ -136,11 +148,12 @@ def get_mission(mission_id: str, svc: Svc) -> MissionOut:
     response_model=MissionOut,
     status_code=202,
     dependencies=[Depends(writer)],
+    responses=responses(401, 404, 409),
 )
 def cancel_mission(mission_id: str, svc: Svc) -> MissionOut:
     row = found(svc, mission_id)
-    if row.status in ("succeeded", "failed", "cancelled"):
-        raise HTTPException(409, f"mission {mission_id} already ended ({row.status})")
+    if row.status in TERMINAL:
+        raise ApiError(409, f"mission {mission_id} already ended ({row.status})")
     svc.supervisor.cancel(mission_id)
     return resource(svc, found(svc, mission_id))
 
@@ -172,12 +185,12 @@ def plan_of(svc: Services, mission_id: str) -> PlanOut:
     )
 
 
-@router.get("/missions/{mission_id}/plan", response_model=PlanOut)
+@router.get("/missions/{mission_id}/plan", response_model=PlanOut, responses=responses(404))
 def get_plan(mission_id: str, svc: Svc) -> PlanOut:
     return plan_of(svc, mission_id)
 
 
-@router.get("/plan", response_model=PlanOut)
+@router.get("/plan", response_model=PlanOut, responses=responses(404, 422))
 def get_plan_query(
     svc: Svc, mission: Annotated[str | None, Query(max_length=64)] = None
 ) -> PlanOut:
@@ -185,18 +198,20 @@ def get_plan_query(
     if mission is None:
         latest = svc.store.latest_mission()
         if latest is None:
-            raise HTTPException(404, "there are no missions yet")
+            raise ApiError(404, "there are no missions yet")
         mission = latest.id
     return plan_of(svc, mission)
 
 
-@router.get("/missions/{mission_id}/trajectory", response_model=TrajectoryOut)
+@router.get(
+    "/missions/{mission_id}/trajectory", response_model=TrajectoryOut, responses=responses(404)
+)
 def get_trajectory(mission_id: str, svc: Svc) -> TrajectoryOut:
     found(svc, mission_id)
     return TrajectoryOut(mission=mission_id, points=svc.store.trajectory(mission_id) or [])
 
 
-@router.get("/missions/{mission_id}/pddl", response_model=list[PddlOut])
+@router.get("/missions/{mission_id}/pddl", response_model=list[PddlOut], responses=responses(404))
 def get_pddl(mission_id: str, svc: Svc) -> list[PddlOut]:
     found(svc, mission_id)
     return [
@@ -205,9 +220,13 @@ def get_pddl(mission_id: str, svc: Svc) -> list[PddlOut]:
     ]
 
 
-@router.get("/missions/{mission_id}/tree")
+@router.get("/missions/{mission_id}/tree", responses=responses(404))
 def get_tree(mission_id: str, svc: Svc) -> dict[str, Any]:
-    """The latest behaviour-tree snapshot the mission broadcast (empty before it runs)."""
-    found(svc, mission_id)
-    tree: dict[str, Any] = svc.hub.last_tree.get(mission_id, {})
+    """The behaviour tree as last seen: names, types, statuses, feedback, children (empty
+    before it runs; a finished mission's root shows how it ended)."""
+    row = found(svc, mission_id)
+    stored: dict[str, Any] = (row.state or {}).get("tree") or {}
+    if row.status in TERMINAL and stored:
+        return stored
+    tree: dict[str, Any] = svc.hub.last_tree.get(mission_id) or stored
     return tree

@@ -6,9 +6,10 @@ import json
 from pathlib import Path
 from typing import Any
 
-from fastapi import APIRouter, HTTPException
+from fastapi import APIRouter
 from fastapi.responses import FileResponse
 
+from app.api.errors import ApiError, responses
 from app.paper import examples_dir
 
 router = APIRouter(tags=["viewer"])
@@ -25,10 +26,10 @@ def list_examples() -> dict[str, Any]:
     return {"items": sorted(p.stem for p in examples_dir().glob("*.json"))}
 
 
-@router.get("/examples/{name}")
+@router.get("/examples/{name}", responses=responses(404))
 def get_example(name: str) -> dict[str, Any]:
     names = {p.stem: p for p in examples_dir().glob("*.json")}
     if name not in names:
-        raise HTTPException(404, f"example {name!r} not found")
+        raise ApiError(404, f"example {name!r} not found")
     data: dict[str, Any] = json.loads(names[name].read_text())
     return data

@@ -235,12 +235,9 @@ class Replan(MissionBehaviour):
         )
         ctx.trigger = None
         if out.record.trigger != "initial":
-            ctx.event(
-                "replan",
-                trigger=out.record.trigger,
-                latency_ms=round(out.record.latency_ms, 3),
-                version=ctx.plan_version,
-            )
+            # one layout for the log and the websocket: the replan record and its version
+            record = {k: v for k, v in out.record.to_dict().items() if k != "at"}
+            ctx.event("replan", **record, version=ctx.plan_version)
         if not out.ok:
             ctx.have_plan = False
             ctx.failure = out.reason

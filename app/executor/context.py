@@ -29,6 +29,7 @@ class GoalState:
     reached: bool = False
     error: float | None = None
     reached_at: float | None = None
+    removed: bool = False  # removed by a live update: no longer pursued
 
     def distance(self, x: float, y: float) -> float:
         return math.hypot(self.x - x, self.y - y)
@@ -41,6 +42,7 @@ class GoalState:
             "reached": self.reached,
             "error": self.error,
             "reached_at": self.reached_at,
+            "removed": self.removed,
         }
 
 
@@ -91,7 +93,7 @@ class MissionContext:
         self.events.append({"t": round(self.t, 3), "kind": kind, **detail})
 
     def remaining_goals(self) -> list[int]:
-        return [i for i, g in enumerate(self.goals) if not g.reached]
+        return [i for i, g in enumerate(self.goals) if not (g.reached or g.removed)]
 
     def mark_reached(self, index: int) -> None:
         goal = self.goals[index]

@@ -19,9 +19,21 @@ from concurrent.futures import ThreadPoolExecutor
 from multiprocessing.synchronize import Event as ProcessEvent
 from typing import Any
 
+from app.missions.status import TERMINAL, MissionStatus
 from app.service.hub import Frame, Hub
+from app.service.messages import (
+    Ended,
+    PlanMade,
+    Publish,
+    Replanned,
+    SaveState,
+    TrajectoryDone,
+    Transition,
+    Update,
+    WorkerMessage,
+)
 from app.service.metrics import Metrics
-from app.service.worker import Message, run_mission_process
+from app.service.worker import run_mission_process
 from app.settings import Settings
 from app.store.repo import Store
 from primitives.library import Library, bundled_library_path
@@ -47,6 +59,7 @@ class Supervisor:
         self.library_path = str(settings.library or bundled_library_path())
         self.pool = ThreadPoolExecutor(settings.max_running, thread_name_prefix="mission")
         self.cancels: dict[str, ProcessEvent] = {}
+        self.updates: dict[str, multiprocessing.Queue[Update]] = {}  # running missions' inboxes
         self.running: set[str] = set()
         self.shutting_down = threading.Event()
         self.loop: asyncio.AbstractEventLoop | None = None
@@ -106,12 +119,18 @@ class Supervisor:
     def cancel(self, mission_id: str) -> bool:
         """Ask a mission to stop: queued ones end now, running ones within one interval."""
         row = self.store.get_mission(mission_id)
-        if row is None or row.status in ("succeeded", "failed", "cancelled"):
+        if row is None or row.status in TERMINAL:
             return False
         if mission_id in self.running:
             if self.store.transition(mission_id, "cancelling", "cancel requested"):
                 self._publish(
-                    mission_id, {"type": "event", "kind": "status", "status": "cancelling"}
+                    mission_id,
+                    {
+                        "type": "event",
+                        "kind": "status",
+                        "status": "cancelling",
+                        "reason": "cancel requested",
+                    },
                 )
             self.cancels.setdefault(mission_id, CONTEXT.Event()).set()
             return True
@@ -124,17 +143,30 @@ class Supervisor:
             )
         return True
 
+    def update(self, mission_id: str, update: Update) -> bool:
+        """Send a live update to a running mission's worker; False if it is not running."""
+        inbox = self.updates.get(mission_id)
+        if inbox is None:
+            return False
+        inbox.put(update)
+        return True
+
     # -- worker thread side --------------------------------------------------------------------
     def _publish(self, mission_id: str, frame: Frame) -> None:
         if self.loop is not None and not self.loop.is_closed():
             self.loop.call_soon_threadsafe(self.hub.publish, mission_id, frame)
 
     def _transition(
-        self, mission_id: str, status: str, reason: str = "", state: dict[str, Any] | None = None
+        self,
+        mission_id: str,
+        status: MissionStatus,
+        reason: str = "",
+        state: dict[str, Any] | None = None,
     ) -> None:
         if self.store.transition(mission_id, status, reason, state):  # written before broadcast
             self._publish(
-                mission_id, {"type": "event", "kind": "status", "status": status, "reason": reason}
+                mission_id,
+                {"type": "event", "kind": "status", "status": str(status), "reason": reason},
             )
 
     def _work(self, mission_id: str) -> None:
@@ -148,14 +180,20 @@ class Supervisor:
             self._execute(mission_id, row.request, cancel)
         except Exception as exc:  # never leave a mission active: fail it with the reason
             log.exception("mission %s failed unexpectedly", mission_id)
-            self._end(mission_id, "failed", f"internal error: {type(exc).__name__}: {exc}", None)
+            self._end(
+                mission_id,
+                MissionStatus.FAILED,
+                f"internal error: {type(exc).__name__}: {exc}",
+                None,
+            )
         finally:
             self.running.discard(mission_id)
             self.cancels.pop(mission_id, None)  # its semaphore goes with it
             self.metrics.running.dec()
 
     def _execute(self, mission_id: str, request: dict[str, Any], cancel: ProcessEvent) -> None:
-        messages: multiprocessing.Queue[Message] = CONTEXT.Queue()
+        messages: multiprocessing.Queue[WorkerMessage] = CONTEXT.Queue()
+        inbox: multiprocessing.Queue[Update] = CONTEXT.Queue()
         args = (
             mission_id,
             request,
@@ -164,11 +202,13 @@ class Supervisor:
             messages,
             cancel,
             os.getpid(),
+            inbox,
         )
         process = CONTEXT.Process(
             target=run_mission_process, args=args, name=f"mission-{mission_id[:8]}", daemon=True
         )
         process.start()
+        self.updates[mission_id] = inbox
         try:
             while True:
                 try:
@@ -181,7 +221,7 @@ class Supervisor:
                             return
                         self._end(
                             mission_id,
-                            "failed",
+                            MissionStatus.FAILED,
                             f"worker process died (exit code {process.exitcode})",
                             None,
                         )
@@ -190,13 +230,16 @@ class Supervisor:
                 if self._handle(mission_id, message):
                     return
         finally:
+            self.updates.pop(mission_id, None)
+            inbox.close()
+            inbox.cancel_join_thread()  # updates nobody will read any more
             process.join(timeout=10)
             if process.is_alive():
                 process.kill()
             messages.close()
             messages.join_thread()
 
-    def _drain(self, mission_id: str, messages: multiprocessing.Queue[Message]) -> bool:
+    def _drain(self, mission_id: str, messages: multiprocessing.Queue[WorkerMessage]) -> bool:
         """Handle what a finished worker left in the queue; True if that ended the mission."""
         while True:
             try:
@@ -206,41 +249,69 @@ class Supervisor:
             if self._handle(mission_id, message):
                 return True
 
-    def _handle(self, mission_id: str, message: Message) -> bool:
+    def _handle(self, mission_id: str, message: WorkerMessage) -> bool:
         """Store, then broadcast, one worker message; True at the end."""
-        kind = message[0]
-        if kind == "frame":
-            self._publish(mission_id, message[1])
-        elif kind == "state":
-            self.store.save_state(mission_id, message[1])
-        elif kind == "transition":
-            self._transition(mission_id, message[1], message[2], message[3])
-        elif kind == "plan":
-            _, version, domain, domain_pddl, problem_pddl, plan, actions = message
-            self.store.add_plan(
-                mission_id, version, domain, domain_pddl, problem_pddl, plan, actions
-            )
-            self._publish(
-                mission_id, {"type": "plan", "version": version, "plan": plan, "actions": actions}
-            )
-        elif kind == "replan":
-            record = message[1]
+        if isinstance(message, Publish):
+            self._publish(mission_id, message.frame)
+        elif isinstance(message, SaveState):
+            self.store.save_state(mission_id, message.state)
+        elif isinstance(message, Transition):
+            self._transition(mission_id, message.status, message.reason, message.state)
+        elif isinstance(message, Replanned):
+            # replanning (status), the replan (event), then its plan, then executing again
+            record = message.record
             self.store.add_replan(mission_id, record)
             self.metrics.replan_latency.observe(record["latency_ms"] / 1000)
-            self._transition(mission_id, "replanning", record["trigger"])
-            self._transition(mission_id, "executing")
-            self._publish(mission_id, {"type": "event", "kind": "replan", **record})
-        elif kind == "trajectory":
-            self.store.save_trajectory(mission_id, message[1])
-        elif kind == "end":
-            _, status, reason, state = message
-            if status == "cancelled" and self.shutting_down.is_set():
-                status, reason = "failed", "interrupted (server shut down)"
-            self._end(mission_id, status, reason, state)
+            self._transition(mission_id, MissionStatus.REPLANNING, record["trigger"])
+            event = {k: v for k, v in record.items() if k != "at"}
+            self._publish(
+                mission_id,
+                {
+                    "type": "event",
+                    "kind": "replan",
+                    "t": message.t,
+                    **event,
+                    "version": message.version,
+                },
+            )
+        elif isinstance(message, PlanMade):
+            self.store.add_plan(
+                mission_id,
+                message.version,
+                message.domain,
+                message.domain_pddl,
+                message.problem_pddl,
+                message.plan,
+                message.actions,
+            )
+            self._publish(
+                mission_id,
+                {
+                    "type": "plan",
+                    "version": message.version,
+                    "plan": message.plan,
+                    "actions": message.actions,
+                },
+            )
+            if message.version > 1:
+                self._transition(mission_id, MissionStatus.EXECUTING)
+        elif isinstance(message, TrajectoryDone):
+            self.store.save_trajectory(mission_id, message.points)
+        elif isinstance(message, Ended):
+            status, reason = message.status, message.reason
+            if status == MissionStatus.CANCELLED and self.shutting_down.is_set():
+                status, reason = MissionStatus.FAILED, "interrupted (server shut down)"
+            self._end(mission_id, status, reason, message.state)
             return True
         return False
 
-    def _end(self, mission_id: str, status: str, reason: str, state: dict[str, Any] | None) -> None:
+    def _end(
+        self,
+        mission_id: str,
+        status: MissionStatus,
+        reason: str,
+        state: dict[str, Any] | None,
+    ) -> None:
         if self.store.transition(mission_id, status, reason, state):
             self.metrics.finished.labels(status).inc()
         row = self.store.get_mission(mission_id)

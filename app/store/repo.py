@@ -17,6 +17,7 @@ from sqlalchemy import Engine, func, select, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import sessionmaker
 
+from app.missions.status import ACTIVE, TERMINAL
 from app.store.models import (
     JobRow,
     LibraryVersionRow,
@@ -26,9 +27,6 @@ from app.store.models import (
     TrajectoryRow,
     TransitionRow,
 )
-
-TERMINAL = ("succeeded", "failed", "cancelled")
-ACTIVE = ("planning", "executing", "replanning", "cancelling")
 
 
 def now() -> datetime:
@@ -118,10 +116,10 @@ class Store:
             if row is None or row.status in TERMINAL:
                 return False
             t = now()
-            row.status, row.reason, row.updated_at = status, reason, t
+            row.status, row.reason, row.updated_at = str(status), reason, t
             if state is not None:
                 row.state = state
-            s.add(TransitionRow(mission_id=mission_id, status=status, at=t, reason=reason))
+            s.add(TransitionRow(mission_id=mission_id, status=str(status), at=t, reason=reason))
             s.commit()
             return True
 
@@ -137,7 +135,7 @@ class Store:
     def interrupt_unfinished(self) -> list[str]:
         """At start-up: missions left active by a crash become failed/interrupted."""
         with self.lock, self.sessions() as s:
-            rows = list(s.scalars(select(MissionRow).where(MissionRow.status.in_(ACTIVE))))
+            rows = list(s.scalars(select(MissionRow).where(MissionRow.status.in_(sorted(ACTIVE)))))
             t = now()
             for row in rows:
                 row.status, row.reason, row.updated_at = "failed", "interrupted", t
