@@ -6,7 +6,7 @@ import secrets
 from dataclasses import dataclass
 from typing import Annotated
 
-from fastapi import Depends, Request
+from fastapi import Depends, Path, Request
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from app.api.errors import ApiError
@@ -37,6 +37,8 @@ def services(request: Request) -> Services:
 
 
 Svc = Annotated[Services, Depends(services)]
+MissionId = Annotated[str, Path(description="the mission's id (a UUID)")]
+JobId = Annotated[str, Path(description="the job's id (a UUID)")]
 bearer = HTTPBearer(auto_error=False)
 
 

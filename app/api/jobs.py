@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from fastapi import APIRouter, Depends, Response
 
-from app.api.deps import Svc, writer
+from app.api.deps import JobId, Svc, writer
 from app.api.errors import ApiError, responses
 from app.api.schemas import JobOut, LearnIn
 from app.store.models import JobRow
@@ -41,7 +41,7 @@ def start_learning(body: LearnIn, response: Response, svc: Svc) -> JobOut:
 
 
 @router.get("/jobs/{job_id}", response_model=JobOut, responses=responses(404))
-def get_job(job_id: str, svc: Svc) -> JobOut:
+def get_job(job_id: JobId, svc: Svc) -> JobOut:
     row = svc.store.get_job(job_id)
     if row is None:
         raise ApiError(404, f"job {job_id} not found")
@@ -55,7 +55,7 @@ def get_job(job_id: str, svc: Svc) -> JobOut:
     dependencies=[Depends(writer)],
     responses=responses(401, 404, 409),
 )
-def cancel_job(job_id: str, svc: Svc) -> JobOut:
+def cancel_job(job_id: JobId, svc: Svc) -> JobOut:
     row = svc.store.get_job(job_id)
     if row is None:
         raise ApiError(404, f"job {job_id} not found")

@@ -6,7 +6,7 @@ from typing import Annotated, Any
 
 from fastapi import APIRouter, Body, Depends, Header, Query, Response
 
-from app.api.deps import Services, Svc, writer
+from app.api.deps import MissionId, Services, Svc, writer
 from app.api.errors import ApiError, responses
 from app.api.examples import mission_examples
 from app.api.schemas import (
@@ -99,7 +99,13 @@ def create_mission(
     spec: Annotated[MissionSpec, Body(openapi_examples=mission_examples())],
     response: Response,
     svc: Svc,
-    idempotency_key: Annotated[str | None, Header(max_length=200)] = None,
+    idempotency_key: Annotated[
+        str | None,
+        Header(
+            max_length=200,
+            description="a retry with the same key returns the mission it created (200)",
+        ),
+    ] = None,
 ) -> MissionOut:
     """Validate and store the mission, then queue it; a retried Idempotency-Key returns it again."""
     check_library(svc, spec)
@@ -129,8 +135,8 @@ def list_missions(
     status: Annotated[
         MissionStatus | None, Query(description="only missions in this status")
     ] = None,
-    limit: Annotated[int, Query(ge=1, le=200)] = 50,
-    offset: Annotated[int, Query(ge=0, le=10**9)] = 0,
+    limit: Annotated[int, Query(ge=1, le=200, description="page size")] = 50,
+    offset: Annotated[int, Query(ge=0, le=10**9, description="missions to skip")] = 0,
 ) -> MissionPage:
     rows, total = svc.store.list_missions(status, limit, offset)
     return MissionPage(
@@ -139,7 +145,7 @@ def list_missions(
 
 
 @router.get("/missions/{mission_id}", response_model=MissionOut, responses=responses(404))
-def get_mission(mission_id: str, svc: Svc) -> MissionOut:
+def get_mission(mission_id: MissionId, svc: Svc) -> MissionOut:
     return resource(svc, found(svc, mission_id))
 
 
@@ -150,7 +156,7 @@ def get_mission(mission_id: str, svc: Svc) -> MissionOut:
     dependencies=[Depends(writer)],
     responses=responses(401, 404, 409),
 )
-def cancel_mission(mission_id: str, svc: Svc) -> MissionOut:
+def cancel_mission(mission_id: MissionId, svc: Svc) -> MissionOut:
     row = found(svc, mission_id)
     if row.status in TERMINAL:
         raise ApiError(409, f"mission {mission_id} already ended ({row.status})")
@@ -186,13 +192,16 @@ def plan_of(svc: Services, mission_id: str) -> PlanOut:
 
 
 @router.get("/missions/{mission_id}/plan", response_model=PlanOut, responses=responses(404))
-def get_plan(mission_id: str, svc: Svc) -> PlanOut:
+def get_plan(mission_id: MissionId, svc: Svc) -> PlanOut:
     return plan_of(svc, mission_id)
 
 
 @router.get("/plan", response_model=PlanOut, responses=responses(404, 422))
 def get_plan_query(
-    svc: Svc, mission: Annotated[str | None, Query(max_length=64)] = None
+    svc: Svc,
+    mission: Annotated[
+        str | None, Query(max_length=64, description="a mission's id; none: the latest")
+    ] = None,
 ) -> PlanOut:
     """The plan of ``?mission=ID``, or of the latest mission."""
     if mission is None:
@@ -206,13 +215,13 @@ def get_plan_query(
 @router.get(
     "/missions/{mission_id}/trajectory", response_model=TrajectoryOut, responses=responses(404)
 )
-def get_trajectory(mission_id: str, svc: Svc) -> TrajectoryOut:
+def get_trajectory(mission_id: MissionId, svc: Svc) -> TrajectoryOut:
     found(svc, mission_id)
     return TrajectoryOut(mission=mission_id, points=svc.store.trajectory(mission_id) or [])
 
 
 @router.get("/missions/{mission_id}/pddl", response_model=list[PddlOut], responses=responses(404))
-def get_pddl(mission_id: str, svc: Svc) -> list[PddlOut]:
+def get_pddl(mission_id: MissionId, svc: Svc) -> list[PddlOut]:
     found(svc, mission_id)
     return [
         PddlOut(version=p.version, domain=p.domain_pddl, problem=p.problem_pddl, plan=p.plan)
@@ -221,7 +230,7 @@ def get_pddl(mission_id: str, svc: Svc) -> list[PddlOut]:
 
 
 @router.get("/missions/{mission_id}/tree", responses=responses(404))
-def get_tree(mission_id: str, svc: Svc) -> dict[str, Any]:
+def get_tree(mission_id: MissionId, svc: Svc) -> dict[str, Any]:
     """The behaviour tree as last seen: names, types, statuses, feedback, children (empty
     before it runs; a finished mission's root shows how it ended)."""
     row = found(svc, mission_id)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Query
+from fastapi import APIRouter, Path, Query
 
 from app.api.deps import Svc
 from app.api.errors import ApiError, responses
@@ -45,7 +45,9 @@ def list_primitives(
 
 
 @router.get("/primitives/{name}", responses=responses(404))
-def get_primitive(name: str, svc: Svc) -> dict[str, Any]:
+def get_primitive(
+    name: Annotated[str, Path(description="a primitive's id or paper label (P1s)")], svc: Svc
+) -> dict[str, Any]:
     """One library entry in the library file's format, plus its travel ``direction`` (rad)."""
     if name not in svc.library:
         raise ApiError(404, f"primitive {name!r} not found")

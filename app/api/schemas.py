@@ -163,24 +163,16 @@ class SimulateIn(BaseModel):
             description="the four screw speeds θ1..θ4, normalised to [-1, 1] (rad/s at 1)",
         ),
     ]
-    joints: (
-        Annotated[
-            list[Joint],
-            Field(min_length=3, max_length=3, description="held joint angles φ1..φ3, radians"),
-        ]
-        | None
-    ) = None
+    joints: Annotated[list[Joint], Field(min_length=3, max_length=3)] | None = Field(
+        default=None, description="held joint angles φ1..φ3, radians (U2); none: straight"
+    )
     phases: (
         Annotated[
             list[Annotated[float, Field(allow_inf_nan=False, ge=-100, le=100)]],
-            Field(
-                min_length=3,
-                max_length=3,
-                description="gait phases ϕ1..ϕ3, radians: φi = 0.2 sin(0.6 t + ϕi)",
-            ),
+            Field(min_length=3, max_length=3),
         ]
         | None
-    ) = None
+    ) = Field(default=None, description="gait phases ϕ1..ϕ3, radians: φi = 0.2 sin(0.6 t + ϕi)")
     duration: Annotated[
         float, Field(allow_inf_nan=False, gt=0, le=3600, description="model seconds")
     ] = 100.0

@@ -15,7 +15,7 @@ from fastapi import APIRouter, Depends, Path
 from fastapi.responses import StreamingResponse
 from pydantic import ValidationError
 
-from app.api.deps import Services, Svc, writer
+from app.api.deps import MissionId, Services, Svc, writer
 from app.api.errors import ApiError, responses
 from app.api.missions import found
 from app.api.schemas import GoalAdd, ObstacleAdd, UpdateOut
@@ -58,7 +58,7 @@ def goals_now(row: MissionRow) -> list[dict[str, Any]]:
 
 
 @router.post("/missions/{mission_id}/goals", **WRITE, responses=responses(401, 404, 409, 422))
-def add_goal(mission_id: str, goal: GoalAdd, svc: Svc) -> UpdateOut:
+def add_goal(mission_id: MissionId, goal: GoalAdd, svc: Svc) -> UpdateOut:
     """Append a goal to a running mission; it replans (trigger `goals_changed`). The new
     goal's index follows the goals as posted."""
     row = running(svc, mission_id)
@@ -78,7 +78,7 @@ def add_goal(mission_id: str, goal: GoalAdd, svc: Svc) -> UpdateOut:
     "/missions/{mission_id}/goals/{index}", **WRITE, responses=responses(401, 404, 409, 422)
 )
 def remove_goal(
-    mission_id: str,
+    mission_id: MissionId,
     index: Annotated[int, Path(ge=0, le=10_000, description="the goal's index, as posted")],
     svc: Svc,
 ) -> UpdateOut:
@@ -95,7 +95,7 @@ def remove_goal(
 
 
 @router.post("/missions/{mission_id}/obstacles", **WRITE, responses=responses(401, 404, 409, 422))
-def add_obstacle(mission_id: str, body: ObstacleAdd, svc: Svc) -> UpdateOut:
+def add_obstacle(mission_id: MissionId, body: ObstacleAdd, svc: Svc) -> UpdateOut:
     """Add a known obstacle to the mission's world model; it replans (`obstacle_added`)."""
     row = running(svc, mission_id)
     obstacle = body.obstacle.model_dump() | {"known": True}
@@ -103,7 +103,7 @@ def add_obstacle(mission_id: str, body: ObstacleAdd, svc: Svc) -> UpdateOut:
 
 
 @router.post("/missions/{mission_id}/pause", **WRITE, responses=responses(401, 404, 409))
-def pause(mission_id: str, svc: Svc) -> UpdateOut:
+def pause(mission_id: MissionId, svc: Svc) -> UpdateOut:
     """Hold the robot still: model time stops until `resume` (or `cancel`)."""
     row = running(svc, mission_id)
     if row.status == MissionStatus.PAUSED:
@@ -112,7 +112,7 @@ def pause(mission_id: str, svc: Svc) -> UpdateOut:
 
 
 @router.post("/missions/{mission_id}/resume", **WRITE, responses=responses(401, 404, 409))
-def resume(mission_id: str, svc: Svc) -> UpdateOut:
+def resume(mission_id: MissionId, svc: Svc) -> UpdateOut:
     """Go on from where it paused; it replans (`resumed`)."""
     row = running(svc, mission_id)
     if row.status != MissionStatus.PAUSED:
@@ -132,7 +132,7 @@ def resume(mission_id: str, svc: Svc) -> UpdateOut:
         **responses(404),
     },
 )
-def get_events(mission_id: str, svc: Svc) -> StreamingResponse:
+def get_events(mission_id: MissionId, svc: Svc) -> StreamingResponse:
     """The mission's audit trail as JSON lines (one JSON object per line)."""
     row = found(svc, mission_id)
     transitions = svc.store.transitions(mission_id)

@@ -4,9 +4,10 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 from fastapi import APIRouter
+from fastapi import Path as PathParam
 from fastapi.responses import FileResponse
 
 from app.api.errors import ApiError, responses
@@ -27,7 +28,7 @@ def list_examples() -> dict[str, Any]:
 
 
 @router.get("/examples/{name}", responses=responses(404))
-def get_example(name: str) -> dict[str, Any]:
+def get_example(name: Annotated[str, PathParam(description="an example's name")]) -> dict[str, Any]:
     names = {p.stem: p for p in examples_dir().glob("*.json")}
     if name not in names:
         raise ApiError(404, f"example {name!r} not found")
