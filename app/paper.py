@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 from app.executor.runner import MissionRunner
+from app.mission_plot import plot_mission, sensed_cells
 from app.missions.spec import load_mission
 from app.plots import plot_learning_curves, plot_trajectories
 from primitives.interpolation import interpolate_entries
@@ -148,8 +149,6 @@ def fig8(library: Library, out: Path) -> tuple[list[Row], Path]:
 
 def mission_experiment(name: str, figure: str, title: str, paper: str) -> Experiment:
     def run(library: Library, out: Path) -> tuple[list[Row], Path]:
-        from app.cli_missions import plot_mission, sensed_cells
-
         spec = load_mission(examples_dir() / f"{name}.json")
         runner = MissionRunner(spec, library)
         result = runner.run()

@@ -68,17 +68,10 @@ def found(svc: Services, mission_id: str) -> MissionRow:
 
 def check_library(svc: Services, spec: MissionSpec) -> None:
     """Chain steps must name primitives the running library has (422 naming the step)."""
-    for i, step in enumerate(spec.chain):
-        names = (
-            [step.primitive]
-            if step.primitive
-            else list(step.interpolate.from_ if step.interpolate else [])
-        )
-        for name in names:
-            if name not in svc.library:
-                raise ApiError(
-                    422, f"chain.{i}: primitive {name!r} is not in the library", f"chain.{i}"
-                )
+    unknown = spec.unknown_primitive(svc.library)
+    if unknown is not None:
+        i, name = unknown
+        raise ApiError(422, f"chain.{i}: primitive {name!r} is not in the library", f"chain.{i}")
 
 
 @router.post(

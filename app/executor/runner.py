@@ -90,6 +90,11 @@ class MissionRunner:
         self.status: str = "executing"
         self.reason = ""
         self.paused_at: float | None = None  # model time when paused; None while running
+        unknown = spec.unknown_primitive(library)
+        if unknown is not None:  # the same answer the API gives, not a KeyError mid-run
+            raise MissionError(
+                f"chain.{unknown[0]}: primitive {unknown[1]!r} is not in the library"
+            )
         try:
             self.robot = robot or sim_robot(spec)
         except ValueError as exc:

@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from collections.abc import Container
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -445,6 +446,16 @@ class MissionSpec(Strict):
                         f"goals.{i}: closer to obstacles.{j} than the robot can reach "
                         f"({r:g} m around the tracked point, less 0.4 of the tolerance)"
                     )
+
+    def unknown_primitive(self, known: Container[str]) -> tuple[int, str] | None:
+        """The first chain step naming a primitive that is not in ``known``: (step, name)."""
+        for i, step in enumerate(self.chain):
+            names = [step.primitive] if step.primitive else []
+            names += list(step.interpolate.from_) if step.interpolate else []
+            for name in names:
+                if name not in known:
+                    return i, name
+        return None
 
     def world_obstacles(self) -> list[Obstacle]:
         return [obstacle_from_dict(o.model_dump()) for o in self.obstacles]
