@@ -38,7 +38,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        engine = make_engine(config.database_url)
+        engine = make_engine(config.database())
         migrate(engine)
         store = Store(engine)
         path = config.library or bundled_library_path()

@@ -8,8 +8,19 @@ from pathlib import Path
 from pydantic import BaseModel, Field
 
 
+def default_data_dir() -> Path:
+    """Where the service keeps its files unless told: ``$XDG_DATA_HOME/screwsnake`` (by default
+    ``~/.local/share/screwsnake``), the same whichever directory the server starts in."""
+    base = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
+    return Path(base) / "screwsnake"
+
+
 class Settings(BaseModel):
-    database_url: str = "sqlite:///./var/screwsnake.db"
+    data_dir: Path = Field(default_factory=default_data_dir)  # SCREWSNAKE_DATA_DIR
+    database_url: str | None = None  # None: SQLite at data_dir/screwsnake.db
+    retention_days: float = Field(
+        90.0, ge=0, le=100_000
+    )  # finished missions older than this are deleted (0: kept forever)
     library: Path | None = None  # None: the bundled library
     api_key: str | None = None  # bearer token required for writes when set
     max_running: int = Field(4, ge=1, le=256)  # missions executing at once; the rest queue
@@ -17,6 +28,12 @@ class Settings(BaseModel):
     ws_queue: int = Field(
         256, ge=8, le=100_000
     )  # undeliverable event frames before a client is dropped
+
+    def database(self) -> str:
+        """The database URL: the one given, or a SQLite file in the data directory."""
+        if self.database_url:
+            return self.database_url
+        return f"sqlite:///{self.data_dir.expanduser().resolve() / 'screwsnake.db'}"
 
     @classmethod
     def from_env(cls) -> Settings:

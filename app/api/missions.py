@@ -159,7 +159,7 @@ def cancel_mission(mission_id: MissionId, svc: Svc) -> MissionOut:
 
 def plan_of(svc: Services, mission_id: str) -> PlanOut:
     found(svc, mission_id)
-    plans = svc.store.plans(mission_id)
+    plans = svc.store.plans(mission_id, texts=False, last=True)
     replans = [
         ReplanOut(
             trigger=r.trigger,

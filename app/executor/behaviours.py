@@ -235,9 +235,17 @@ class Replan(MissionBehaviour):
         )
         ctx.trigger = None
         if out.record.trigger != "initial":
-            # one layout for the log and the websocket: the replan record and its version
-            record = {k: v for k, v in out.record.to_dict().items() if k != "at"}
-            ctx.event("replan", **record, version=ctx.plan_version)
+            # The log keeps the record without its plans (those are the plan versions); the
+            # websocket's replan event adds them (old, new) to these same fields.
+            record = out.record.to_dict()
+            ctx.event(
+                "replan",
+                trigger=record["trigger"],
+                detail=record["detail"],
+                latency_ms=record["latency_ms"],
+                status=record["status"],
+                version=ctx.plan_version,
+            )
         if not out.ok:
             ctx.have_plan = False
             ctx.failure = out.reason

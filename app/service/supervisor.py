@@ -15,7 +15,9 @@ import multiprocessing
 import os
 import queue as queue_module
 import threading
+import time
 from concurrent.futures import ThreadPoolExecutor
+from datetime import UTC, datetime, timedelta
 from multiprocessing.synchronize import Event as ProcessEvent
 from typing import Any
 
@@ -43,6 +45,7 @@ CONTEXT = multiprocessing.get_context("forkserver")  # safe beside threads; prel
 CONTEXT.set_forkserver_preload(["app.service.worker"])
 POLL_SECONDS = 0.5
 DRAIN_SECONDS = 0.5  # how long a dead worker's last messages may take to arrive
+PRUNE_SECONDS = 3600.0  # wall seconds between retention sweeps
 
 
 class Supervisor:
@@ -66,6 +69,7 @@ class Supervisor:
         self.queue: asyncio.Queue[str] | None = None
         self.slots: asyncio.Semaphore | None = None
         self.tasks: set[asyncio.Task[Any]] = set()
+        self.pruned_at = 0.0  # monotonic time of the last retention sweep
 
     # -- lifecycle (event loop side) ----------------------------------------------------------
     async def start(self) -> None:
@@ -77,6 +81,7 @@ class Supervisor:
                 "mission %s was running when the server stopped: failed/interrupted", mission_id
             )
         self.store.interrupt_jobs()
+        self.prune()
         for mission_id in self.store.queued():
             self.submit(mission_id)
         self._keep(asyncio.create_task(self._dispatch()))
@@ -150,6 +155,17 @@ class Supervisor:
             return False
         inbox.put(update)
         return True
+
+    def prune(self) -> int:
+        """Delete finished missions older than the retention setting (0 keeps them all)."""
+        self.pruned_at = time.monotonic()
+        days = self.settings.retention_days
+        if days <= 0:
+            return 0
+        gone = self.store.prune(datetime.now(UTC) - timedelta(days=days))
+        if gone:
+            log.info("retention: deleted %d missions that ended over %g days ago", gone, days)
+        return gone
 
     # -- worker thread side --------------------------------------------------------------------
     def _publish(self, mission_id: str, frame: Frame) -> None:
@@ -314,6 +330,8 @@ class Supervisor:
     ) -> None:
         if self.store.transition(mission_id, status, reason, state):
             self.metrics.finished.labels(status).inc()
+        if time.monotonic() - self.pruned_at > PRUNE_SECONDS:
+            self.prune()
         row = self.store.get_mission(mission_id)
         final = row.status if row else status
         self._publish(
