@@ -206,7 +206,7 @@ def _run(
         events_sent, versions = len(ctx.events), ctx.plan_version
         if done:
             break
-        if not executing:
+        if not executing and not runner.paused:  # a pause before the first tick stays paused
             queue.put(Transition(MissionStatus.EXECUTING, "", mission_state(runner)))
             executing = True
         wall = time.perf_counter()
