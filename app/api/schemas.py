@@ -13,6 +13,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 from app.missions.spec import Coord, GoalSpec, Joint, ObstacleSpec, Pose
 from app.missions.status import MissionStatus
+from app.service.frames import PoseOut
 from primitives.shapes import SHAPES
 
 Finite = Annotated[float, Field(allow_inf_nan=False)]
@@ -38,15 +39,6 @@ class GoalOut(BaseModel):
     )
     reached_at: float | None = Field(default=None, description="when reached, model seconds")
     removed: bool = Field(default=False, description="removed by a live update; not pursued")
-
-
-class PoseOut(BaseModel):
-    """Where the robot is: its tracked point (the head), heading and joint angles."""
-
-    x: float = Field(description="tracked point x, metres (world frame)")
-    y: float = Field(description="tracked point y, metres (world frame)")
-    psi: float = Field(description="heading ψ of the head, radians, counter-clockwise from +x")
-    joints: list[float] = Field(description="the three joint angles φ1..φ3 as sensed, radians")
 
 
 MISSION_EXAMPLE: dict[str, Any] = {
@@ -312,4 +304,4 @@ class UpdateOut(BaseModel):
     status: MissionStatus = Field(description="the mission's status when accepted")
 
 
-__all__ = ["Coord"]
+__all__ = ["Coord", "PoseOut"]

@@ -21,7 +21,16 @@ from datetime import UTC, datetime, timedelta
 from multiprocessing.synchronize import Event as ProcessEvent
 from typing import Any
 
+from pydantic import ValidationError
+
 from app.missions.status import TERMINAL, MissionStatus
+from app.service.frames import (
+    EndFrame,
+    PlanFrame,
+    ReplanEvent,
+    StatusEvent,
+    parse_frame,
+)
 from app.service.hub import Frame, Hub
 from app.service.messages import (
     Ended,
@@ -127,24 +136,22 @@ class Supervisor:
         if row is None or row.status in TERMINAL:
             return False
         if mission_id in self.running:
-            if self.store.transition(mission_id, "cancelling", "cancel requested"):
+            reason = "cancel requested"
+            if self.store.transition(mission_id, MissionStatus.CANCELLING, reason):
                 self._publish(
                     mission_id,
-                    {
-                        "type": "event",
-                        "kind": "status",
-                        "status": "cancelling",
-                        "reason": "cancel requested",
-                    },
+                    StatusEvent(
+                        type="event", kind="status", status=MissionStatus.CANCELLING, reason=reason
+                    ),
                 )
             self.cancels.setdefault(mission_id, CONTEXT.Event()).set()
             return True
         self.cancels.setdefault(mission_id, CONTEXT.Event()).set()
-        if self.store.transition(mission_id, "cancelled", "cancelled before it started"):
+        reason = "cancelled before it started"
+        if self.store.transition(mission_id, MissionStatus.CANCELLED, reason):
             self.metrics.finished.labels("cancelled").inc()
             self._publish(
-                mission_id,
-                {"type": "end", "status": "cancelled", "reason": "cancelled before it started"},
+                mission_id, EndFrame(type="end", status=MissionStatus.CANCELLED, reason=reason)
             )
         return True
 
@@ -181,8 +188,7 @@ class Supervisor:
     ) -> None:
         if self.store.transition(mission_id, status, reason, state):  # written before broadcast
             self._publish(
-                mission_id,
-                {"type": "event", "kind": "status", "status": str(status), "reason": reason},
+                mission_id, StatusEvent(type="event", kind="status", status=status, reason=reason)
             )
 
     def _work(self, mission_id: str) -> None:
@@ -268,7 +274,12 @@ class Supervisor:
     def _handle(self, mission_id: str, message: WorkerMessage) -> bool:
         """Store, then broadcast, one worker message; True at the end."""
         if isinstance(message, Publish):
-            self._publish(mission_id, message.frame)
+            try:
+                frame = parse_frame(message.frame)
+            except ValidationError:  # a bug in the worker: say so, never send it to clients
+                log.exception("mission %s: a frame breaks the protocol", mission_id)
+            else:
+                self._publish(mission_id, frame)
         elif isinstance(message, SaveState):
             self.store.save_state(mission_id, message.state)
         elif isinstance(message, Transition):
@@ -279,16 +290,20 @@ class Supervisor:
             self.store.add_replan(mission_id, record)
             self.metrics.replan_latency.observe(record["latency_ms"] / 1000)
             self._transition(mission_id, MissionStatus.REPLANNING, record["trigger"])
-            event = {k: v for k, v in record.items() if k != "at"}
             self._publish(
                 mission_id,
-                {
-                    "type": "event",
-                    "kind": "replan",
-                    "t": message.t,
-                    **event,
-                    "version": message.version,
-                },
+                ReplanEvent(
+                    type="event",
+                    kind="replan",
+                    t=message.t,
+                    trigger=record["trigger"],
+                    detail=record["detail"],
+                    latency_ms=record["latency_ms"],
+                    old=record["old"],
+                    new=record["new"],
+                    status=record["status"],
+                    version=message.version,
+                ),
             )
         elif isinstance(message, PlanMade):
             self.store.add_plan(
@@ -302,12 +317,12 @@ class Supervisor:
             )
             self._publish(
                 mission_id,
-                {
-                    "type": "plan",
-                    "version": message.version,
-                    "plan": message.plan,
-                    "actions": message.actions,
-                },
+                PlanFrame(
+                    type="plan",
+                    version=message.version,
+                    plan=message.plan,
+                    actions=message.actions,
+                ),
             )
             if message.version > 1:
                 self._transition(mission_id, MissionStatus.EXECUTING)
@@ -333,7 +348,6 @@ class Supervisor:
         if time.monotonic() - self.pruned_at > PRUNE_SECONDS:
             self.prune()
         row = self.store.get_mission(mission_id)
-        final = row.status if row else status
-        self._publish(
-            mission_id, {"type": "end", "status": final, "reason": row.reason if row else reason}
-        )
+        final = MissionStatus(row.status) if row else status
+        end = EndFrame(type="end", status=final, reason=row.reason if row else reason)
+        self._publish(mission_id, end)

@@ -12,6 +12,10 @@ import jsonschema
 import pytest
 from fastapi.testclient import TestClient
 
+from app.executor.runner import MissionRunner
+from app.missions.spec import load_mission
+from app.service.frames import StateFrame, parse_frame
+from primitives.library import Library, bundled_library_path
 from tests.service.test_api import frames, wait_end
 
 EXAMPLES = Path(__file__).parents[2] / "examples"
@@ -144,3 +148,20 @@ def test_simulate_thinning_is_a_parameter_and_said(
     assert len(out["points"]) == rows and out["steps"] == 100
     assert out["points"][-1][0] == 100  # the last step is always there
     assert out["points"][1][0] == out["stride"]  # dt = 1: row i is step i * stride
+
+
+def test_every_event_and_state_a_mission_makes_is_a_protocol_frame() -> None:
+    """What the worker publishes parses as the typed frames the hub carries (never dropped)."""
+    library = Library.load(bundled_library_path())
+    kinds = set()
+    for name in ("fig9b-chain", "deform-while-avoiding", "hard/dropout-ir-hidden-wall"):
+        runner = MissionRunner(load_mission(EXAMPLES / f"{name}.json"), library)
+        while not runner.step():
+            if int(runner.ctx.t * 4) % 40 == 0:
+                state = parse_frame({"type": "state", **runner.snapshot()})
+                assert isinstance(state, StateFrame)
+        for event in runner.ctx.events:
+            if event["kind"] != "replan":  # replans go out as the supervisor's ReplanEvent
+                parse_frame({"type": "event", **event})
+            kinds.add(event["kind"])
+    assert {"obstacle_sensed", "deform", "dropout", "goal_reached"} <= kinds
