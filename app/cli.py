@@ -8,9 +8,12 @@ from typing import Annotated
 
 import numpy as np
 import typer
+from pydantic import ValidationError
 from rich.table import Table
 
-from app.console import console, fail
+from app.api.schemas import SimulateIn
+from app.console import AsJson, console, emit, fail, invalid
+from app.missions.spec import Pose
 from app.plots import plot_trajectories
 from sim.controls import Control, FixedShape, PeriodicGait
 from sim.paper_cases import PAPER_CASES
@@ -45,9 +48,23 @@ def simulate(
     dt: Annotated[float, typer.Option(help="Euler step [model s]")] = 1.0,
     joint_mode: Annotated[str, typer.Option(help="paper (quasi-static) or complete")] = "paper",
     out: Annotated[Path | None, typer.Option(help="trajectory plot (PNG)")] = None,
+    as_json: AsJson = False,
 ) -> None:
     """Run one control open-loop, print the end pose and write a trajectory plot."""
     goal: tuple[float, float] | None = None
+    if case is None and theta is not None:  # what POST /simulate rejects is rejected here too
+        try:
+            SimulateIn(
+                theta=list(theta),
+                joints=None if joints is None else list(joints),
+                phases=None if phases is None else list(phases),
+                duration=duration,
+                dt=dt,
+                start=Pose(x=start[0], y=start[1], psi=start[2]),
+                joint_mode=joint_mode,  # type: ignore[arg-type]  # checked by the model
+            )
+        except ValidationError as exc:
+            raise invalid(exc) from exc
     try:
         control: Control
         if case is not None:
@@ -68,17 +85,30 @@ def simulate(
     except ValueError as exc:
         raise fail(str(exc)) from exc
     end = states[-1]
+    name = case or "simulate"
+    path = out or Path("out") / f"{name}.png"
+    times = np.arange(len(states), dtype=np.float64) * config.dt
+    plot_trajectories(path, [states], title=name, goals=[goal] if goal else [], times=[times])
+    error = None if goal is None else float(np.hypot(end[0] - goal[0], end[1] - goal[1]))
+    if as_json:
+        emit(
+            {
+                "end": {"x": float(end[0]), "y": float(end[1]), "psi": float(end[2])},
+                "duration": config.duration,
+                "steps": config.steps,
+                "goal": goal,
+                "distance": error,
+                "plot": str(path),
+            }
+        )
+        return
     table = Table(title=f"end pose after {config.duration:g} model s ({config.steps} steps)")
     for col in ("x (m)", "y (m)", "ψ (deg)"):
         table.add_column(col, justify="right")
     table.add_row(f"{end[0]:.3f}", f"{end[1]:.3f}", f"{math.degrees(end[2]):.1f}")
     console.print(table)
     if goal is not None:
-        error = float(np.hypot(end[0] - goal[0], end[1] - goal[1]))
         console.print(f"goal {goal}: distance {error:.3f} m")
-    name = case or "simulate"
-    path = out or Path("out") / f"{name}.png"
-    plot_trajectories(path, [states], title=name, goals=[goal] if goal else [])
     console.print(f"plot: {path}")
 
 

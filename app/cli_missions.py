@@ -9,7 +9,7 @@ import typer
 from rich.table import Table
 
 from app.cli_primitives import load_library
-from app.console import console, fail
+from app.console import AsJson, console, emit, fail
 from app.executor.context import MissionResult
 from app.executor.runner import MissionError, MissionRunner
 from app.mission_plot import plot_mission, sensed_cells
@@ -55,6 +55,7 @@ def mission(
     library: Annotated[
         Path | None, typer.Option(help="primitive library (default: bundled)")
     ] = None,
+    as_json: AsJson = False,
 ) -> None:
     """Run a mission headless, print a summary and write a trajectory plot."""
     try:
@@ -63,9 +64,12 @@ def mission(
     except (MissionFileError, MissionError) as exc:
         raise fail(str(exc)) from exc
     result = runner.run()
-    print_summary(result)
     path = plot_mission(spec, result, out or Path("out") / f"{spec.name}.png", sensed_cells(runner))
-    console.print(f"plot: {path}")
+    if as_json:
+        emit({**result.summary(), "plot": str(path)})
+    else:
+        print_summary(result)
+        console.print(f"plot: {path}")
     if result.status != "succeeded":
         raise typer.Exit(code=1)
 
@@ -76,11 +80,20 @@ def paper(
     library: Annotated[
         Path | None, typer.Option(help="primitive library (default: bundled)")
     ] = None,
+    as_json: AsJson = False,
 ) -> None:
     """List, or run, the paper's experiments that the system reproduces."""
     from app.paper import EXPERIMENTS
 
     if name.lower() == "list":
+        if as_json:
+            emit(
+                [
+                    {"name": e.name, "figure": e.figure, "what": e.title}
+                    for e in EXPERIMENTS.values()
+                ]
+            )
+            return
         table = Table(title="reproducible experiments")
         for col in ("name", "figure", "what"):
             table.add_column(col)
@@ -92,6 +105,16 @@ def paper(
         raise fail(f"unknown experiment {name!r}; run `screwsnake paper list`")
     experiment = EXPERIMENTS[name]
     rows, path = experiment.run(load_library(library), out)
+    if as_json:
+        emit(
+            {
+                "experiment": experiment.name,
+                "figure": experiment.figure,
+                "rows": [{"what": r[0], "paper": r[1], "screwsnake": r[2]} for r in rows],
+                "plot": str(path),
+            }
+        )
+        return
     table = Table(title=f"{experiment.figure}: {experiment.title}")
     for col in ("", "the paper", "screwsnake"):
         table.add_column(col)

@@ -8,16 +8,19 @@ from typing import Annotated
 
 import numpy as np
 import typer
+from pydantic import ValidationError
+from rich import box
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
-from app.console import console, fail
+from app.api.schemas import LearnIn
+from app.console import AsJson, console, emit, fail, invalid
 from app.plots import plot_learning_curves, plot_trajectories
 from primitives.build import build_library
 from primitives.catalogue import FAMILIES, PrimitiveSpec, default_specs, grid_specs, lattice_specs
 from primitives.executors import make_executor
 from primitives.learners import LEARNERS, StopRule, UpdateRecord, make_learner
-from primitives.library import Library, LibraryError, bundled_library_path
+from primitives.library import Library, LibraryError, Primitive, bundled_library_path
 from primitives.params import ParameterSpace
 from primitives.shapes import SHAPES, shape_named
 from primitives.task import LearningTask
@@ -38,8 +41,21 @@ def learn(
     threshold: Annotated[float, typer.Option(help="stop below this cost [m]")] = 0.05,
     max_updates: Annotated[int, typer.Option(help="update budget")] = 100,
     out: Annotated[Path, typer.Option(help="learning-curve plot (PNG)")] = Path("out/learn.png"),
+    as_json: AsJson = False,
 ) -> None:
-    """Learn one primitive, with a progress bar and a learning-curve plot."""
+    """Learn one primitive, with a progress bar and a learning-curve plot; exits 1 when it
+    does not converge below the threshold."""
+    try:  # the API's request model: what POST /jobs/learn rejects is rejected here too
+        LearnIn(
+            goal=goal,
+            shape=shape,
+            learner=learner,  # type: ignore[arg-type]  # checked by the model
+            seed=seed,
+            threshold=threshold,
+            max_updates=max_updates,
+        )
+    except ValidationError as exc:
+        raise invalid(exc) from exc
     try:
         space = ParameterSpace.for_shape(shape)
         task = LearningTask(goal, space)
@@ -53,7 +69,7 @@ def learn(
         MofNCompleteColumn(),
         TimeElapsedColumn(),
     )
-    with Progress(*columns, console=console, transient=True) as bar:
+    with Progress(*columns, console=console, transient=True, disable=as_json) as bar:
         job = bar.add_task(f"{algo.name} → {goal}", total=max_updates)
 
         def tick(record: UpdateRecord) -> None:
@@ -62,19 +78,39 @@ def learn(
             )
 
         result = algo.learn(task, seed, stop, progress=tick)
-    verdict = "[green]converged[/green]" if result.converged else "[yellow]not converged[/yellow]"
-    console.print(
-        f"{verdict}: cost {result.cost:.4f} m after {result.updates} updates, {result.rollouts} rollouts, "
-        f"{result.wall_time * 1e3:.0f} ms"
-    )
     theta, joints, phases = space.split(result.params)
-    console.print(f"theta = {np.round(theta, 3).tolist()}")
-    shape_values = phases if phases is not None else joints or []
-    console.print(f"{'phases' if phases else 'joints'} = {np.round(shape_values, 3).tolist()}")
     plot_learning_curves(
         out, [result.curve], title=f"{algo.name}: goal {goal}, {shape}", threshold=threshold
     )
-    console.print(f"plot: {out}")
+    if as_json:
+        emit(
+            {
+                "converged": result.converged,
+                "cost": result.cost,
+                "updates": result.updates,
+                "rollouts": result.rollouts,
+                "wall_ms": round(result.wall_time * 1e3, 1),
+                "theta": np.round(theta, 6).tolist(),
+                "joints": None if joints is None else np.round(joints, 6).tolist(),
+                "phases": None if phases is None else np.round(phases, 6).tolist(),
+                "curve": list(result.curve),
+                "plot": str(out),
+            }
+        )
+    else:
+        verdict = (
+            "[green]converged[/green]" if result.converged else "[yellow]not converged[/yellow]"
+        )
+        console.print(
+            f"{verdict}: cost {result.cost:.4f} m after {result.updates} updates, "
+            f"{result.rollouts} rollouts, {result.wall_time * 1e3:.0f} ms"
+        )
+        console.print(f"theta = {np.round(theta, 3).tolist()}")
+        shape_values = phases if phases is not None else joints or []
+        console.print(f"{'phases' if phases else 'joints'} = {np.round(shape_values, 3).tolist()}")
+        console.print(f"plot: {out}")
+    if not result.converged:
+        raise typer.Exit(code=1)  # like a failed mission: scripts see that it did not work
 
 
 def load_library(path: Path | None) -> Library:
@@ -109,6 +145,7 @@ def library_build(
     address: Annotated[
         str | None, typer.Option(help="Ray cluster address, e.g. ray://head:10001")
     ] = None,
+    as_json: AsJson = False,
 ) -> None:
     """Learn every primitive of the catalogue (deterministic for a seed) and save the library."""
     try:
@@ -133,16 +170,20 @@ def library_build(
         MofNCompleteColumn(),
         TimeElapsedColumn(),
     )
-    with Progress(*columns, console=console) as bar:
+    with Progress(*columns, console=console, disable=as_json) as bar:
         job = bar.add_task(f"learning ({pool.name})", total=len(specs))
         library = build_library(specs, learner, seed, pool, done=lambda i: bar.advance(job))
     library.save(out)
-    parts = []
+    parts, families = [], {}
     for name in FAMILIES:
         entries = [e for e in library if e.family == name]
         if entries:
-            worst = max(e.cost for e in entries) * 100
-            parts.append(f"{len(entries)} {name} (worst cost {worst:.2f} cm)")
+            worst = max(e.cost for e in entries)
+            families[name] = {"primitives": len(entries), "worst_cost": worst}
+            parts.append(f"{len(entries)} {name} (worst cost {worst * 100:.2f} cm)")
+    if as_json:
+        emit({"out": str(out), "primitives": len(library), "families": families})
+        return
     console.print(f"{len(library)} primitives: {', '.join(parts) or 'none'} → {out}")
 
 
@@ -153,41 +194,77 @@ def library_show(
     ] = None,
     shape: Annotated[str | None, typer.Option(help="only this shape")] = None,
     family: Annotated[str | None, typer.Option(help="only this family: paper or lattice")] = None,
+    params: Annotated[
+        bool, typer.Option("--params", help="add the parameters (θ̇, φ/ϕ): a wide table")
+    ] = False,
+    as_json: AsJson = False,
 ) -> None:
-    """List the primitives: id, label, shape, goal, direction, turn, duration, parameters, error."""
+    """List the primitives: id, label, goal, direction, turn, duration, error, updates."""
     library = load_library(path)
-    table = Table(title=f"{len(library)} primitives")
-    for col in (
-        "id",
-        "label",
-        "shape",
-        "goal (m)",
-        "dir (°)",
-        "turn (°)",
-        "T (s)",
-        "θ̇ (rad/s)",
-        "φ / ϕ (rad)",
-        "error (cm)",
-        "updates",
-    ):
-        table.add_column(col)
-    for e in library:
-        if (shape and e.shape != shape) or (family and e.family != family):
-            continue
-        table.add_row(
-            e.id,
-            e.label or "",
-            e.shape,
-            f"({e.goal[0]:.2f}, {e.goal[1]:.2f})",
+    if shape is not None and not library.of_shape(shape):
+        raise fail(f"no primitives of shape {shape!r}; shapes: {', '.join(library.shapes())}")
+    if family is not None and family not in FAMILIES:
+        raise fail(f"family: one of {', '.join(FAMILIES)}; got {family!r}")
+    entries = [
+        e for e in library if (not shape or e.shape == shape) and (not family or e.family == family)
+    ]
+    if as_json:
+        emit(
+            {
+                "total": len(library),
+                "shown": len(entries),
+                "primitives": [entry_dict(e) for e in entries],
+            }
+        )
+        return
+    console.print(primitives_table(entries, len(library), params))
+
+
+def entry_dict(e: Primitive) -> dict[str, object]:
+    """A primitive as JSON-ready data (what ``library show --json`` prints)."""
+    return {
+        "id": e.id,
+        "label": e.label,
+        "shape": e.shape,
+        "family": e.family,
+        "goal": list(e.goal),
+        "direction": e.direction,
+        "turn": e.turn,
+        "duration": e.rollout.duration,
+        "theta": list(e.theta),
+        "joints": None if e.joints is None else list(e.joints),
+        "phases": None if e.phases is None else list(e.phases),
+        "cost": e.cost,
+        "updates": e.updates,
+    }
+
+
+def primitives_table(entries: list[Primitive], total: int, params: bool) -> Table:
+    """The primitives as a table that fits 80 columns (without ``params``): ids are what users
+    copy into missions, so they are never cut; the title counts the rows shown."""
+    title = f"{len(entries)} primitives" + (f" (of {total})" if len(entries) < total else "")
+    table = Table(title=title, box=box.SIMPLE_HEAD, pad_edge=False, collapse_padding=True)
+    table.add_column("id", no_wrap=True, min_width=max((len(e.id) for e in entries), default=2))
+    columns = ["label", "goal (m)", "dir°", "turn°", "T s"]  # the id names the shape
+    columns += [*(["θ̇ rad/s", "φ / ϕ rad"] if params else []), "err cm", "upd"]
+    for col in columns:
+        table.add_column(col, justify="left" if col == "label" else "right", no_wrap=not params)
+    for e in entries:
+        row = [e.id, e.label or ""]
+        row += [
+            f"{e.goal[0]:.2f},{e.goal[1]:.2f}",
             f"{e.direction:.0f}",
             f"{math.degrees(e.turn):+.3g}" if e.family == "lattice" else "",
             f"{e.rollout.duration:g}",
-            " ".join(f"{v:+.2f}" for v in e.theta),
-            " ".join(f"{v:+.2f}" for v in (e.phases or e.joints or ())),
-            f"{e.cost * 100:.1f}",
-            str(e.updates),
-        )
-    console.print(table)
+        ]
+        if params:
+            row += [
+                " ".join(f"{v:+.2f}" for v in e.theta),
+                " ".join(f"{v:+.2f}" for v in (e.phases or e.joints or ())),
+            ]
+        row += [f"{e.cost * 100:.1f}", str(e.updates)]
+        table.add_row(*row)
+    return table
 
 
 @library_cli.command("plot")
@@ -197,6 +274,7 @@ def library_plot(
     ] = None,
     shape: Annotated[str, typer.Option(help="shape to draw")] = "straight",
     out: Annotated[Path, typer.Option(help="PNG to write")] = Path("out/library.png"),
+    as_json: AsJson = False,
 ) -> None:
     """Draw each primitive's trajectory from the start pose, like the paper's Fig. 6."""
     library = load_library(path)
@@ -212,4 +290,7 @@ def library_plot(
         outlines=2,
         labels=[e.name for e in entries],
     )
+    if as_json:
+        emit({"plot": str(out), "primitives": [e.id for e in entries]})
+        return
     console.print(f"plot: {out}")

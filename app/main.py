@@ -16,6 +16,7 @@ from app.api import (
     jobs,
     missions,
     primitives,
+    replay,
     simulate,
     updates,
     viewer,
@@ -71,7 +72,18 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     )
     errors.install(app)
     errors.document(app)
-    for module in (missions, updates, primitives, simulate, jobs, health, ws, viewer, docs):
+    for module in (
+        missions,
+        updates,
+        replay,
+        primitives,
+        simulate,
+        jobs,
+        health,
+        ws,
+        viewer,
+        docs,
+    ):
         app.include_router(module.router)
     return app
 

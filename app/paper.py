@@ -81,6 +81,7 @@ def learning_experiment(name: str) -> Experiment:
             out / f"{name}.png",
             [r.curve for r in results],
             title=f"{name}: {title}",
+            labels=[f"seed {seed}" for seed in range(len(results))],
             threshold=0.05,
         )
         rows = [

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -84,7 +85,7 @@ def relative(pose: Array, target: Array) -> Array:
     return np.array([xy[0], xy[1], turn])
 
 
-def _capsule_samples(starts: Array, ends: Array, radii: Array) -> tuple[Array, Array]:
+def capsule_samples(starts: Array, ends: Array, radii: Array) -> tuple[Array, Array]:
     """Points along capsule axes ``[..., C, 2]`` no further apart than SAMPLE_SPACING, and
     the clearance each needs (its capsule's radius); flattened to ``[N, 2]`` and ``[N]``."""
     length = float(np.max(np.linalg.norm(ends - starts, axis=-1)))
@@ -139,7 +140,7 @@ class MotionTable:
         for k in range(K):
             start = self.pose_of_centroid(np.zeros(2), k)
             fp0 = footprint(start, self.joints, self.geometry)
-            p0, n0 = _capsule_samples(fp0.starts, fp0.ends, fp0.radii)
+            p0, n0 = capsule_samples(fp0.starts, fp0.ends, fp0.radii)
             self.body_points.append(p0)
             self.body_needs.append(n0)
             pts_k: list[Array] = []
@@ -154,7 +155,7 @@ class MotionTable:
                 # landed, snapped to the lattice, so it was not checked by that move.
                 swept = compose(start, _thin(motion.swept, reach))
                 fp = footprint(swept, self.joints, self.geometry)
-                pts, need = _capsule_samples(fp.starts, fp.ends, fp.radii)
+                pts, need = capsule_samples(fp.starts, fp.ends, fp.radii)
                 seg.append(sum(len(p) for p in pts_k))
                 pts_k.append(pts)
                 need_k.append(need)
@@ -190,13 +191,24 @@ class LatticeGrid:
     bounds: Bounds
     settings: LatticeSettings
 
-    @property
+    # Cached: searches ask for these on every state they touch.
+    @cached_property
     def nx(self) -> int:
         return max(1, math.ceil((self.bounds.xmax - self.bounds.xmin) / self.settings.resolution))
 
-    @property
+    @cached_property
     def ny(self) -> int:
         return max(1, math.ceil((self.bounds.ymax - self.bounds.ymin) / self.settings.resolution))
+
+    @cached_property
+    def centres(self) -> Array:
+        """Every cell centre ``[nx * ny, 2]``, cell (i, j) at row ``i * ny + j``."""
+        r = self.settings.resolution
+        xs = self.bounds.xmin + (np.arange(self.nx) + 0.5) * r
+        ys = self.bounds.ymin + (np.arange(self.ny) + 0.5) * r
+        cx, cy = np.meshgrid(xs, ys, indexing="ij")
+        out: Array = np.stack([cx.ravel(), cy.ravel()], -1)
+        return out
 
     def centre(self, i: int, j: int) -> Array:
         r = self.settings.resolution
@@ -220,7 +232,7 @@ class LatticeGrid:
         k, i = divmod(rest, self.nx)
         return i, j, k
 
-    @property
+    @cached_property
     def size(self) -> int:
         return self.nx * self.ny * self.settings.orientations
 

@@ -19,18 +19,17 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import dijkstra
 
 from domain.lattice import Key, LatticeGrid, LatticeSettings, MotionTable
+from domain.lattice_cache import MotionCache
+from domain.lattice_distances import centroid_need, distance_map
+from domain.lattice_reach import Reachability
 from domain.lattice_task import Clearance, LatticeHeuristic, LatticeTask, primitive_name
 from domain.pyperplan_adapter import HEURISTICS, SEARCHES, PlanResult, SearchStopped
 from sim.robot import Array
-from sim.world import Bounds, footprint
+from sim.world import Bounds
 
-NEIGHBOURS = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1))
 MAX_GOALS_EXACT = 7  # unordered goals up to this many are ordered by trying every permutation
-START_FREE = 0.15  # metres around the start centroid that the 2-D relaxation always lets through
 PARTIAL_AFTER = 3000  # expansions after which a partial plan is taken, if it gets closer
 # (an expansion budget, not seconds: the same mission and seed plan the same on any machine)
 
@@ -87,57 +86,6 @@ class LatticePlan:
         return PlanResult(status, self.pddl_plan, self.search_ms, self.expansions, self.reason)  # type: ignore[arg-type]
 
 
-def centroid_need(table: MotionTable) -> float:
-    """Clearance the centroid itself needs: how deep it lies inside the body's capsules."""
-    fp = footprint(np.zeros(3), table.joints, table.geometry)
-    c = table.offset
-    ab = fp.ends - fp.starts
-    s = np.clip(np.sum((c - fp.starts) * ab, -1) / np.maximum(np.sum(ab * ab, -1), 1e-12), 0, 1)
-    d = np.linalg.norm(fp.starts + s[:, None] * ab - c, axis=-1)
-    return float(max(0.0, np.max(fp.radii - d)))
-
-
-def distance_map(
-    grid: LatticeGrid,
-    clearance: Clearance,
-    goal: tuple[float, float],
-    need: float,
-    free: float,
-    start: tuple[float, float] | None = None,
-) -> Array:
-    """Geodesic distance (m) from ``goal`` to every cell over cells whose centre keeps
-    ``need`` clear (less the half-cell the centroid may sit off a centre); cells within ``free``
-    of the goal (where the body reaches the goal with its head) are passable."""
-    nx, ny, r = grid.nx, grid.ny, grid.settings.resolution
-    xs = grid.bounds.xmin + (np.arange(nx) + 0.5) * r
-    ys = grid.bounds.ymin + (np.arange(ny) + 0.5) * r
-    cx, cy = np.meshgrid(xs, ys, indexing="ij")
-    centres = np.stack([cx.ravel(), cy.ravel()], -1)
-    ok = clearance(centres) >= need - r * math.sqrt(0.5)
-    ok |= np.hypot(centres[:, 0] - goal[0], centres[:, 1] - goal[1]) <= free
-    if start is not None:  # the robot is there: it may be touching what it just bumped into
-        ok |= np.hypot(centres[:, 0] - start[0], centres[:, 1] - start[1]) <= START_FREE
-    ok = ok.reshape(nx, ny)
-    index = np.arange(nx * ny).reshape(nx, ny)
-    rows, cols, weights = [], [], []
-    for di, dj in NEIGHBOURS:
-        a = ok[max(0, -di) : nx - max(0, di), max(0, -dj) : ny - max(0, dj)]
-        b = ok[max(0, di) : nx - max(0, -di) : 1, max(0, dj) : ny - max(0, -dj)]
-        both = a & b
-        ia = index[max(0, -di) : nx - max(0, di), max(0, -dj) : ny - max(0, dj)][both]
-        ib = index[max(0, di) : nx - max(0, -di), max(0, dj) : ny - max(0, -dj)][both]
-        rows.append(ia)
-        cols.append(ib)
-        weights.append(np.full(ia.size, r * math.hypot(di, dj)))
-    graph = coo_matrix(
-        (np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
-        shape=(nx * ny, nx * ny),
-    ).tocsr()
-    gi, gj = grid.cell(*goal)
-    dist = dijkstra(graph, directed=True, indices=int(index[gi, gj]))
-    return np.asarray(dist, dtype=float).reshape(nx, ny)
-
-
 @dataclass(frozen=True)
 class _Root:
     """A stand-in search node for evaluating the heuristic at a state."""
@@ -164,6 +112,9 @@ class LatticePlanner:
         self.settings = settings
         self.search, self.heuristic, self.time_limit = search, heuristic, time_limit
         self._maps: dict[tuple[Any, ...], Array] = {}
+        self._reach: dict[tuple[Any, ...], Reachability] = {}
+        self._motions: dict[tuple[Any, ...], MotionCache] = {}
+        self._centres: tuple[Any, Array] | None = None
 
     # -- lattice states ---------------------------------------------------------------------
     def key_of(self, table: MotionTable, pose: Sequence[float]) -> Key:
@@ -192,9 +143,23 @@ class LatticePlanner:
                 self._maps.clear()
             free = float(np.linalg.norm(table.offset)) + goal.tolerance
             self._maps[key] = distance_map(
-                self.grid, clearance, (goal.x, goal.y), centroid_need(table), free, start
+                self.grid,
+                self.centre_clearance(clearance, version),
+                (goal.x, goal.y),
+                centroid_need(table),
+                free,
+                start,
             )
         return self._maps[key]
+
+    def reachability(self, table: MotionTable, clearance: Clearance, version: Any) -> Reachability:
+        """The free configuration space's components for this world version and shape."""
+        key = (version, table.shape, tuple(np.round(table.joints, 3)))
+        if key not in self._reach:
+            if len(self._reach) > 4:
+                self._reach.clear()
+            self._reach[key] = Reachability(self.grid, table, clearance, self.settings.margin)
+        return self._reach[key]
 
     # -- planning -----------------------------------------------------------------------------
     def plan(
@@ -215,6 +180,7 @@ class LatticePlanner:
         """
         started = time.monotonic()
         deadline = started + self.time_limit
+        self.motion_cache(table).refresh(self.centre_clearance(clearance, version), version)
         start = self.key_of(table, pose)
         si, sj, _ = start
         here_xy = tuple(float(v) for v in self.grid.centre(si, sj))
@@ -234,6 +200,17 @@ class LatticePlanner:
             if leg == 0:
                 plan.task = task
             result = self._search(task, maps[goal.index])
+            long_search = result.status == "timeout" or result.reason == "partial"
+            # After a long search, first make sure the body can get there at all.
+            if long_search and not self.reachability(table, clearance, version).reaches(
+                here, (goal.x, goal.y), task.reach
+            ):
+                plan.status, plan.actions = "unreachable", []
+                plan.reason = (
+                    f"unreachable: goal {goal.index} at ({goal.x:g}, {goal.y:g}): no "
+                    f"collision-free motion of the {table.shape} body brings its head there"
+                )
+                break
             if result.status == "timeout" and time.monotonic() < deadline:
                 # Nothing closer to go to yet: search again with all the time left.
                 task = self._leg(table, clearance, here, goal, leg == 0, deadline, cancel)
@@ -277,7 +254,25 @@ class LatticePlanner:
             goal.index,
         )
         task.deadline, task.cancel = deadline, cancel
+        task.cache = self.motion_cache(table)
+        task.at_centres = self._centres[1] if self._centres is not None else None
         return task
+
+    def centre_clearance(self, clearance: Clearance, version: Any) -> Array:
+        """The clearance at every cell centre for a world version (computed once per version:
+        the distance map, the heuristic and the motion cache all read it)."""
+        if self._centres is None or self._centres[0] != version:
+            self._centres = (version, clearance(self.grid.centres))
+        return self._centres[1]
+
+    def motion_cache(self, table: MotionTable) -> MotionCache:
+        """The free motions of this shape's lattice kept between replans."""
+        key = (table.shape, tuple(np.round(table.joints, 3)), self.settings.margin)
+        if key not in self._motions:
+            if len(self._motions) > 4:
+                self._motions.clear()
+            self._motions[key] = MotionCache(self.grid, table, self.settings.margin)
+        return self._motions[key]
 
     def _search(self, task: LatticeTask, distances: Array) -> PlanResult:
         """pyperplan's search on the leg. When time runs out, the path to the most promising

@@ -21,11 +21,13 @@ import numpy as np
 from domain.lattice import LatticeSettings, MotionTable, compose, motion_table, relative
 from domain.lattice_pddl import lattice_domain, lattice_problem
 from domain.lattice_planner import LatticeAction, LatticePlan, LatticePlanner
-from domain.lattice_task import LatticeTask
+from domain.lattice_task import LatticeTask, primitive_name
+from domain.reshape import reshape_clear, reshape_duration
 from domain.strategy import Command, Replanned, Situation
 from domain.triggers import Contact, NoProgress, PathBlocked, ReplanRecord, Trigger
 from primitives.grounding import TICK, Grounded, correction_basis, ground
 from primitives.library import Library, Primitive
+from primitives.shapes import SHAPES
 from sim.controls import FixedShape
 from sim.robot import rotate
 
@@ -97,23 +99,13 @@ class NavigationStrategy:
             )
         else:
             world = s.world
-            self.clearance = lambda pts: world.inflated_clearance_at(
-                pts, SENSED_INFLATION, CONTACT_INFLATION
-            )
             self.backoff = self._back_off(trigger, table) if isinstance(trigger, Contact) else []
             pose = np.asarray(s.pose, dtype=float)
             for entry in self.backoff:  # plan from where backing off will leave the robot
                 pose = compose(pose, np.asarray(entry.end_pose))
-            self.plan = self.planner.plan(
-                table,
-                self.clearance,
-                world.version,
-                tuple(float(v) for v in pose),
-                s.goals,
-                s.ordered,
-                cancel,
-                static=(world.static_clearance_at, world.static_version),
-            )
+            self.plan = self._plan(table, s, pose, cancel)
+            if self.plan.status in ("unreachable", "unsolvable", "timeout") and s.reshapeable:
+                table = self._reshaped(table, s, pose, cancel) or table
             if self.plan.solved and not self.plan.partial:
                 self.recoveries = 0
             elif self.plan.status == "timeout" and self.recoveries < MAX_RECOVERIES:
@@ -134,6 +126,85 @@ class NavigationStrategy:
         return Replanned(
             plan.solved, plan.reason, record, lattice_domain().text(), problem, plan.pddl_plan
         )
+
+    def _plan(
+        self,
+        table: MotionTable,
+        s: Situation,
+        pose: Any,
+        cancel: threading.Event | None,
+    ) -> LatticePlan:
+        """A lattice plan from ``pose``. Suspected surfaces (where a touched one probably goes
+        on) are kept clear of while a way round them exists; only if none does are they
+        planned through."""
+        world = s.world
+        plan = LatticePlan("unsolvable")
+        for suspected in (True, False) if np.any(world.suspected()) else (False,):
+            self.clearance = self._clearance(world, suspected)
+            plan = self.planner.plan(
+                table,
+                self.clearance,
+                (world.version, suspected),
+                tuple(float(v) for v in pose),
+                s.goals,
+                s.ordered,
+                cancel,
+                static=(world.static_clearance_at, world.static_version),
+            )
+            if plan.status not in ("unreachable", "unsolvable"):
+                break
+        return plan
+
+    def _reshaped(
+        self,
+        table: MotionTable,
+        s: Situation,
+        pose: Any,
+        cancel: threading.Event | None,
+    ) -> MotionTable | None:
+        """When the body's shape finds no plan: the nearest other library shape that can be
+        taken here (its sweep keeps the margin) and finds one. The plan starts with the change;
+        returns the new shape's table (``None`` if no shape helps, the plan left as it was)."""
+        here = np.asarray(table.joints, dtype=float)
+        others = sorted(
+            (name for name in self.library.lattice_shapes() if name != table.shape),
+            key=lambda name: float(np.max(np.abs(np.asarray(SHAPES[name].joints) - here))),
+        )
+        clearance = self._clearance(s.world, False)
+        for name in others:
+            joints = tuple(float(v) for v in SHAPES[name].joints)
+            other = self.table_for(name, (joints[0], joints[1], joints[2]))
+            if other is None or not reshape_clear(
+                pose, table.joints, joints, clearance, self.settings.margin
+            ):
+                continue
+            plan = self._plan(other, s, pose, cancel)
+            if not plan.solved:
+                continue
+            target = (float(pose[0]), float(pose[1]), float(pose[2]))
+            change = LatticeAction(
+                "reshape",
+                f"(reshape {primitive_name(table.shape)} {primitive_name(name)})",
+                None,
+                target,
+                reshape_duration(table.joints, joints, TICK),
+            )
+            plan.actions.insert(0, change)
+            self.plan = plan
+            return other
+        return None
+
+    @staticmethod
+    def _clearance(world: Any, suspected: bool) -> Any:
+        """What plans keep clear of: sensed cells and contacts inflated, suspected surfaces
+        too when ``suspected``."""
+
+        def clearance(pts: Any) -> Any:
+            return world.inflated_clearance_at(
+                pts, SENSED_INFLATION, CONTACT_INFLATION, suspected=suspected
+            )
+
+        return clearance
 
     def broken(self, situation: Situation) -> Trigger | None:
         """Re-check the next moves' swept footprints whenever the world model changed."""
@@ -188,6 +259,9 @@ class NavigationStrategy:
                 done, self.running = self.running.action, None
                 if done.name == "back-off":
                     continue
+                if done.name == "reshape":
+                    self.index += 1
+                    continue
                 if done.name == "move":
                     self.index += 1
                     off = self._offset(situation, done.target)
@@ -196,6 +270,11 @@ class NavigationStrategy:
             if self.index >= len(plan.actions):
                 return None
             action = plan.actions[self.index]
+            if action.name == "reshape":
+                joints = np.asarray(table.joints, dtype=float)
+                change = Grounded(np.zeros(4), joints, action.duration, "library", (), np.zeros(3))
+                self.running = Running(action, change, action.duration)
+                continue
             if action.name == "visit":
                 remaining = {g.index for g in situation.goals}
                 if action.goal not in remaining:
@@ -280,8 +359,8 @@ class NavigationStrategy:
             return []
         return [self.library.get(name)] * BACK_OFF_STEPS
 
-    @staticmethod
-    def _command(running: Running) -> Command:
+    def _command(self, running: Running) -> Command:
         g = running.grounded
         control = FixedShape.of(g.theta, g.joints)
-        return Command(control, running.action.pddl, g.to_dict())
+        shape = self.table.shape if running.action.name == "reshape" and self.table else None
+        return Command(control, running.action.pddl, g.to_dict(), shape)

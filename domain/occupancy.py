@@ -104,6 +104,7 @@ class WorldModelSettings:
     # geometry is explained by it and leaves the sensed layer alone
     sample_step: float = 0.5  # beam sample spacing, in cells
     contact_radius: float = 0.05  # disc marked occupied around a contact point (m)
+    suspect_cleared: float = -0.8  # log-odds at or below which a suspected cell is seen free
     max_clearance: float = 2.0  # clearance saturates here (m); exact below it
 
     def __post_init__(self) -> None:

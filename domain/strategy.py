@@ -32,6 +32,7 @@ class Situation:
     ordered: bool
     world: WorldModel
     ranges: tuple[tuple[str, RangeObservation], ...] = ()
+    reshapeable: bool = True  # the joints obey commands (not after a deformation)
 
 
 @dataclass(frozen=True)
@@ -41,6 +42,7 @@ class Command:
     control: Control
     action: str  # the plan step, as PDDL text
     grounding: dict[str, Any] = field(default_factory=dict)
+    shape: str | None = None  # the library shape the command puts the body in, if it changes
 
 
 @dataclass(frozen=True)

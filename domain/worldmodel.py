@@ -65,6 +65,9 @@ class WorldModel:
         self._reset_static()
         self._sensed = SensedLayer(self.grid, settings)
         self._contact = np.zeros(self.grid.shape, dtype=bool)
+        # Where a touched surface probably goes on (a bumper feels a short piece of a wall);
+        # avoided while a way round exists, cleared by beams that see the cells free.
+        self._suspected = np.zeros(self.grid.shape, dtype=bool)
         self._cache: dict[str, Any] = {}
         self._cache_version = -1
         for obstacle in known:
@@ -77,7 +80,13 @@ class WorldModel:
         """Update the sensed layer with range readings; return the world centres of the cells
         that became occupied (NaN readings are dropouts and change nothing)."""
         became, ceased = self._sensed.integrate(observations, self._static)
-        if became.size or ceased.size:
+        changed = bool(became.size or ceased.size)
+        if np.any(self._suspected):
+            seen_free = self._suspected & (self._sensed.log_odds <= self.settings.suspect_cleared)
+            if np.any(seen_free):
+                self._suspected &= ~seen_free
+                changed = True
+        if changed:
             self.version += 1
         return [(float(x), float(y)) for x, y in self.grid.centres(became)]
 
@@ -99,6 +108,24 @@ class WorldModel:
         if np.any(disc & ~window):
             window |= disc
             self.version += 1
+
+    def add_suspected(self, points: Iterable[tuple[float, float]]) -> None:
+        """Mark the cells holding ``points`` as a suspected surface (where a touched one
+        probably continues); beams that see them free clear them again."""
+        pts = np.asarray([p for p in points if math.isfinite(p[0]) and math.isfinite(p[1])])
+        if pts.size == 0:
+            return
+        flat, inside = self.grid.locate(pts.reshape(-1, 2))
+        cells = np.zeros(self.grid.shape, dtype=bool).ravel()
+        cells[flat[inside]] = True
+        cells = cells.reshape(self.grid.shape) & ~self._contact
+        if np.any(cells & ~self._suspected):
+            self._suspected |= cells
+            self.version += 1
+
+    def suspected(self) -> NDArray[np.bool_]:
+        """The suspected-surface layer (a copy)."""
+        return self._suspected.copy()
 
     def add_known(self, obstacle: Obstacle) -> None:
         """Add a known obstacle to the static layer (exact distances within ``max_clearance``)."""
@@ -165,21 +192,28 @@ class WorldModel:
         return out
 
     def inflated_clearance_at(
-        self, points: Array, inflation: float, contact_inflation: float | None = None
+        self,
+        points: Array,
+        inflation: float,
+        contact_inflation: float | None = None,
+        suspected: bool = False,
     ) -> Array:
         """Clearance with sensed cells grown by ``inflation`` metres and contact cells by
         ``contact_inflation`` (default: the same); known obstacles and walls exact. The head
         sees only part of a hidden obstacle, and a bumper only the point it pressed: the rest
-        lies beyond. Cached per inflation until ``version`` changes."""
+        lies beyond. With ``suspected``, suspected-surface cells count as contact cells.
+        Cached per inflation until ``version`` changes."""
         grow_contact = inflation if contact_inflation is None else contact_inflation
-        key = f"inflated:{inflation:g}:{grow_contact:g}"
+        suspect = suspected and bool(np.any(self._suspected))
+        key = f"inflated:{inflation:g}:{grow_contact:g}:{suspect}"
         grid = self._cached(key)
         if grid is None:
-            if grow_contact == inflation:
+            if grow_contact == inflation and not suspect:
                 grown = np.maximum(self._dynamic() - inflation, 0.0)
             else:
+                touched_cells = self._contact | self._suspected if suspect else self._contact
                 sensed = np.maximum(self._distance_to(self._sensed.occupied) - inflation, 0.0)
-                touched = np.maximum(self._distance_to(self._contact) - grow_contact, 0.0)
+                touched = np.maximum(self._distance_to(touched_cells) - grow_contact, 0.0)
                 grown = np.minimum(sensed, touched)
             grid = self._store(key, np.minimum(self._static, grown))
         pts = np.asarray(points, dtype=float)
@@ -277,6 +311,7 @@ class WorldModel:
             "version": self.version,
             "sensed": cells(self._sensed.occupied),
             "contact": cells(self._contact),
+            "suspected": cells(self._suspected),
         }
 
     # --- internals ----------------------------------------------------------------------------

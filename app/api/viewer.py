@@ -15,11 +15,20 @@ from app.paper import examples_dir
 
 router = APIRouter(tags=["viewer"])
 STATIC = Path(__file__).resolve().parents[1] / "static"
+ASSETS = {"viewer.js": "text/javascript", "map.js": "text/javascript", "viewer.css": "text/css"}
 
 
 @router.get("/", include_in_schema=False)
 def index() -> FileResponse:
     return FileResponse(STATIC / "index.html", media_type="text/html")
+
+
+@router.get("/static/{name}", include_in_schema=False)
+def asset(name: str) -> FileResponse:
+    """The viewer's scripts and style sheet (a fixed list: nothing else is served)."""
+    if name not in ASSETS:
+        raise ApiError(404, f"no static file {name!r}")
+    return FileResponse(STATIC / name, media_type=ASSETS[name])
 
 
 @router.get("/examples")

@@ -23,12 +23,18 @@ from app.missions.spec import ARRIVE_FRACTION
 from domain.strategy import Command
 from domain.triggers import Contact, Initial, NoProgress, ShapeChanged, Trigger
 from primitives.shapes import SHAPES, classify_shape
-from sim.robot import DEFAULT_GEOMETRY, joint_positions
+from sim.controls import FixedShape
+from sim.obstacles import point_segment_distance
+from sim.robot import DEFAULT_GEOMETRY, Array, joint_positions, rotate
+from sim.world import footprint
 
 SHAPE_TOLERANCE = 0.1  # rad: sensed joints further than this from the commanded ones: deformed
 NO_PROGRESS_TIME = 150.0  # model seconds without 5 cm of progress towards the next goal
 CONTACT_STANDOFF = 0.02  # metres beyond the touching unit's surface where the contact is marked
 CONTACT_EXTENT = 0.1  # metres a side contact is marked beyond each end of the touching unit
+SUSPECT_EXTENT = 0.6  # metres further the touched surface is suspected to go on (plans avoid
+# it while they can; beams that see it free clear it) ...
+SUSPECT_ANGLE = math.radians(30)  # ... at up to this angle to the touching part
 
 
 class MissionBehaviour(py_trees.behaviour.Behaviour):
@@ -50,10 +56,15 @@ class MissionBehaviour(py_trees.behaviour.Behaviour):
         return Status.FAILURE
 
 
-def contact_points(ctx: MissionContext, contact: ContactReading) -> list[tuple[float, float]]:
-    """Where the touched thing is: just outside the reported side of the reported part. A side
-    bumper spans its unit: the obstacle is marked along the whole side, and a little beyond
-    (what presses a side is mostly a wall or an edge, seldom a point)."""
+Points = list[tuple[float, float]]
+
+
+def contact_points(ctx: MissionContext, contact: ContactReading) -> tuple[Points, Points]:
+    """Where the touched thing is, and where it probably goes on. It is just outside the
+    reported side of the reported part: a side bumper spans its unit, so the obstacle is marked
+    along the whole side and a little beyond (what presses a side is mostly a wall or an edge,
+    seldom a point); an end bumper marks across the end. The surface is suspected to continue
+    ``SUSPECT_EXTENT`` further, both ways, at up to ``SUSPECT_ANGLE`` to the part."""
     x, y, psi = ctx.pose
     pts = joint_positions(np.array([x, y, psi]), np.asarray(ctx.sensed_joints()))
     g = DEFAULT_GEOMETRY
@@ -71,15 +82,39 @@ def contact_points(ctx: MissionContext, contact: ContactReading) -> list[tuple[f
     middle = (front + rear) / 2
     reach = radius + CONTACT_STANDOFF
     if contact.side in ("front", "rear"):
-        end = front + reach * forward if contact.side == "front" else rear - reach * forward
-        across = np.linspace(-radius, radius, 3)[:, None] * left
-        pts_out = end + across
+        sign = 1.0 if contact.side == "front" else -1.0
+        centre = (front if sign > 0 else rear) + sign * reach * forward
+        direction, half, outward = left, radius, sign * forward
     else:
-        normal = left if contact.side == "left" else -left
-        half = float(np.linalg.norm(axis)) / 2 + CONTACT_EXTENT
-        along = np.linspace(-half, half, max(2, math.ceil(2 * half / 0.05) + 1))[:, None] * forward
-        pts_out = middle + reach * normal + along
-    return [(float(p[0]), float(p[1])) for p in pts_out]
+        outward = left if contact.side == "left" else -left
+        centre = middle + reach * outward
+        direction, half = forward, float(np.linalg.norm(axis)) / 2 + CONTACT_EXTENT
+
+    def line(a: float, b: float, along: Array) -> Array:
+        steps = np.linspace(a, b, max(2, math.ceil(abs(b - a) / 0.025) + 1))
+        out: Array = centre + steps[:, None] * along
+        return out
+
+    # The surface touched at an unknown angle to the part: a fan of lines through the contact,
+    # on the touched side of the body and off the body itself (where the body is, is free).
+    beyond = half + SUSPECT_EXTENT
+    fan = np.concatenate(
+        [
+            line(-beyond, beyond, rotate(direction, np.array(a)))
+            for a in np.linspace(-SUSPECT_ANGLE, SUSPECT_ANGLE, 5)
+        ]
+    )
+    fp = footprint(np.array([x, y, psi]), np.asarray(ctx.sensed_joints()), g)
+    off_body = (
+        np.min(point_segment_distance(fan[:, None, :], fp.starts, fp.ends) - fp.radii, axis=-1)
+        > 0.03
+    )
+    ahead = (fan - centre) @ outward >= -0.01
+    suspected = fan[off_body & ahead]
+    touched = line(-half, half, direction)
+    return [(float(p[0]), float(p[1])) for p in touched], [
+        (float(p[0]), float(p[1])) for p in suspected
+    ]
 
 
 class Sense(MissionBehaviour):
@@ -94,9 +129,10 @@ class Sense(MissionBehaviour):
         if obs.contact is not None and getattr(self, "_seen", None) != (obs.t, obs.contact):
             self._seen = (obs.t, obs.contact)
             ctx.contacts += 1
-            marks = contact_points(ctx, obs.contact)
+            marks, suspected = contact_points(ctx, obs.contact)
             for point in marks:
                 ctx.world.add_contact(point)
+            ctx.world.add_suspected(suspected)
             at = marks[len(marks) // 2]
             ctx.event("collision", part=obs.contact.part, side=obs.contact.side, at=list(at))
             return self.fail(
@@ -166,6 +202,10 @@ class Execute(MissionBehaviour):
         if not isinstance(outcome, Command):
             return self.fail(outcome, f"execution stopped: {outcome.kind}")
         ctx.command = outcome.control
+        if outcome.shape is not None and isinstance(outcome.control, FixedShape):
+            # A commanded shape change: the joint sensors are held to the new shape from now.
+            j = outcome.control.joints[0]
+            ctx.shape, ctx.joints = outcome.shape, (float(j[0]), float(j[1]), float(j[2]))
         ctx.current_action = outcome.action
         ctx.grounding = outcome.grounding
         self.feedback_message = ctx.current_action

@@ -117,6 +117,7 @@ class MissionContext:
             ordered=self.spec.order == "given",
             world=self.world,
             ranges=self.observation.ranges,
+            reshapeable=not self.deformed,
         )
 
 

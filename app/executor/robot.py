@@ -60,7 +60,21 @@ class Observation:
             n: None if math.isnan(r.distance) else round(r.distance, 4) for n, r in self.ranges
         }
         joints = [None if math.isnan(v) else round(v, 4) for v in self.joints]
-        return {"ranges": ranges, "joints": joints}
+        # Each ray with its geometry, so a viewer draws what the sensor read: a hit ends at the
+        # distance, no hit (or a dropout) is a faint ray of the full range.
+        rays = [
+            {
+                "name": n,
+                "origin": [round(r.origin[0], 4), round(r.origin[1], 4)],
+                "angle": round(r.angle, 4),
+                "fov": round(r.fov, 4),
+                "max_range": r.max_range,
+                "distance": None if math.isnan(r.distance) else round(r.distance, 4),
+                "hit": bool(r.hit),
+            }
+            for n, r in self.ranges
+        ]
+        return {"ranges": ranges, "joints": joints, "rays": rays}
 
 
 class Robot(Protocol):

@@ -43,6 +43,7 @@ from sim.obstacles import obstacle_from_dict
 WORKER_NICENESS = 10
 STATE_SAVE_SECONDS = 1.0  # wall seconds between state writes of a running mission
 PAUSED_POLL_SECONDS = 0.05  # how often a paused mission looks for resume or cancel
+EVENTS_KEPT = 1000  # events kept in a mission's stored state (the newest)
 
 
 @cache
@@ -64,7 +65,12 @@ def mission_state(runner: MissionRunner) -> dict[str, Any]:
         "action": ctx.current_action,
         "sensed": world.get("sensed", []),
         "contacts": world.get("contact", []),
-        "events": ctx.events,  # the mission's log (GET /missions/{id}/events)
+        "resolution": world.get("resolution"),
+        # For the viewer's replay and the event log (GET /missions/{id}/events): every event
+        # (the newest EVENTS_KEPT), and the model time at which each plan version was made
+        # (index = version - 1).
+        "events": ctx.events[-EVENTS_KEPT:],
+        "plan_times": [round(r.at, 3) for r in ctx.replans],
     }
 
 

@@ -206,3 +206,26 @@ def test_plans_do_not_depend_on_the_hash_seed() -> None:
         assert run.returncode == 0, run.stderr
         outs.add(run.stdout)
     assert len(outs) == 1
+
+
+def test_motions_kept_between_replans_equal_a_fresh_check_after_a_local_change() -> None:
+    bounds = Bounds(-3, 3, -3, 3)
+    obstacles = [Circle(0.0, 0.8, 0.3), Circle(-1.0, -0.6, 0.25)]
+    p, world, first = plan(bounds, obstacles, (2.2, -2.0, math.pi), [(-2.2, 2.0)])
+    assert first.solved and STRAIGHT is not None
+    moves = [a for a in first.actions if a.name == "move"]
+    ahead = moves[len(moves) // 2].target
+    world.add_contact((ahead[0], ahead[1]))  # something found on the way
+    goal = [LegGoal(0, -2.2, 2.0, 0.1)]
+    again = p.plan(STRAIGHT, world.clearance_at, world.version, moves[1].target, goal, True)
+    assert again.solved
+    cache = p.motion_cache(STRAIGHT)
+    assert len(cache.free) > 50  # states carried over and seen again
+    m = p.settings.margin
+    fresh = LatticeTask(p.grid, STRAIGHT, world.clearance_at, (0, 0, 0), (-2.2, 2.0), 0.06, m, m)
+    for number, kept in cache.free.items():
+        key = p.grid.decode(number)
+        fresh.start_key = (-1, -1, -1)  # no state is the start: every one checked in full
+        ok = np.zeros(len(STRAIGHT.motions), dtype=bool)
+        ok[[m for _, m in fresh.valid_motions(key)]] = True
+        assert np.array_equal(kept, ok), key

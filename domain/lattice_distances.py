@@ -1,0 +1,81 @@
+"""Footprint-aware 2-D distances on the lattice's cells: the relaxation that decides most
+unreachable goals before any search, the search heuristic and the goal-to-goal distance table.
+
+Dijkstra (scipy's csgraph) over the cells the body centroid can occupy, 8-connected.
+"""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.sparse import coo_matrix, csr_matrix
+from scipy.sparse.csgraph import dijkstra
+
+from domain.lattice import LatticeGrid, MotionTable
+from sim.robot import Array
+from sim.world import footprint
+
+NEIGHBOURS = ((1, 0), (-1, 0), (0, 1), (0, -1), (1, 1), (1, -1), (-1, 1), (-1, -1))
+START_FREE = 0.15  # metres around the start centroid that the 2-D relaxation always lets through
+
+
+def centroid_need(table: MotionTable) -> float:
+    """Clearance the centroid itself needs: how deep it lies inside the body's capsules."""
+    fp = footprint(np.zeros(3), table.joints, table.geometry)
+    c = table.offset
+    ab = fp.ends - fp.starts
+    s = np.clip(np.sum((c - fp.starts) * ab, -1) / np.maximum(np.sum(ab * ab, -1), 1e-12), 0, 1)
+    d = np.linalg.norm(fp.starts + s[:, None] * ab - c, axis=-1)
+    return float(max(0.0, np.max(fp.radii - d)))
+
+
+def distance_map(
+    grid: LatticeGrid,
+    at_centres: Array,
+    goal: tuple[float, float],
+    need: float,
+    free: float,
+    start: tuple[float, float] | None = None,
+) -> Array:
+    """Geodesic distance (m) from ``goal`` to every cell over cells whose centre keeps
+    ``need`` clear (``at_centres``: the clearance at ``grid.centres``; less the half-cell the
+    centroid may sit off a centre); cells within ``free`` of the goal (where the body reaches
+    the goal with its head) are passable."""
+    nx, ny, r = grid.nx, grid.ny, grid.settings.resolution
+    centres = grid.centres
+    ok = at_centres >= need - r * math.sqrt(0.5)
+    ok |= np.hypot(centres[:, 0] - goal[0], centres[:, 1] - goal[1]) <= free
+    if start is not None:  # the robot is there: it may be touching what it just bumped into
+        ok |= np.hypot(centres[:, 0] - start[0], centres[:, 1] - start[1]) <= START_FREE
+    graph, rows = _topology(nx, ny, r)
+    # The 8-connected graph is built once per grid; edges into or out of blocked cells get an
+    # infinite weight (Dijkstra never improves a distance over them).
+    blocked = ~(ok[rows] & ok[graph.indices])
+    weighted = csr_matrix(
+        (np.where(blocked, np.inf, graph.data), graph.indices, graph.indptr), shape=graph.shape
+    )
+    gi, gj = grid.cell(*goal)
+    dist = dijkstra(weighted, directed=True, indices=gi * ny + gj)
+    return np.asarray(dist, dtype=float).reshape(nx, ny)
+
+
+@lru_cache(maxsize=8)
+def _topology(nx: int, ny: int, r: float) -> tuple[csr_matrix, NDArray[np.intp]]:
+    """Every 8-neighbour edge of an ``nx × ny`` grid with its length, and each edge's source."""
+    index = np.arange(nx * ny).reshape(nx, ny)
+    rows, cols, weights = [], [], []
+    for di, dj in NEIGHBOURS:
+        ia = index[max(0, -di) : nx - max(0, di), max(0, -dj) : ny - max(0, dj)].ravel()
+        ib = index[max(0, di) : nx - max(0, -di), max(0, dj) : ny - max(0, -dj)].ravel()
+        rows.append(ia)
+        cols.append(ib)
+        weights.append(np.full(ia.size, r * math.hypot(di, dj)))
+    graph = coo_matrix(
+        (np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))),
+        shape=(nx * ny, nx * ny),
+    ).tocsr()
+    sources = np.repeat(np.arange(nx * ny), np.diff(graph.indptr))
+    return graph, sources
