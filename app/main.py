@@ -8,8 +8,10 @@ from contextlib import asynccontextmanager
 
 from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
+from fastapi_offline import FastAPIOffline
 
 from app.api import (
+    docs,
     errors,
     faults,
     health,
@@ -19,6 +21,7 @@ from app.api import (
     primitives,
     replay,
     simulate,
+    updates,
     viewer,
     ws,
 )
@@ -41,7 +44,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        engine = make_engine(config.database_url)
+        engine = make_engine(config.database())
         db_health.watch(engine)
         migrate(engine)
         store = Store(engine)
@@ -63,11 +66,15 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             learning.stop()
             engine.dispose()
 
-    app = FastAPI(
+    # Swagger UI and ReDoc from the installed fastapi-offline package: the docs work offline.
+    app = FastAPIOffline(
         title="screwsnake",
         summary="Goal-directed locomotion of a screw-drive snake robot: missions, plans, primitives.",
+        description=docs.DESCRIPTION,
         version=code_version(),
         lifespan=lifespan,
+        openapi_tags=docs.TAGS,
+        static_url="/docs-assets",
     )
     app.state.db_health = db_health
     errors.install(app)
@@ -84,7 +91,18 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             allow_headers=["Authorization", "Content-Type", "Idempotency-Key"],
             expose_headers=["Location", "Retry-After"],
         )
-    for module in (missions, replay, primitives, simulate, jobs, health, ws, viewer):
+    for module in (
+        missions,
+        updates,
+        replay,
+        primitives,
+        simulate,
+        jobs,
+        health,
+        ws,
+        viewer,
+        docs,
+    ):
         app.include_router(module.router)
     return app
 

@@ -10,6 +10,7 @@ from pathlib import Path
 import numpy as np
 
 from app.executor.runner import MissionRunner
+from app.mission_plot import plot_mission, sensed_cells
 from app.missions.spec import load_mission
 from app.paper_missions import (
     PaperRun,
@@ -213,7 +214,7 @@ def paper_mission_experiment(name: str, figure: str, title: str, paper: str) -> 
     and tabulates the executed chain beside the paper's."""
 
     def run(library: Library, out: Path) -> tuple[list[Row], Path]:
-        from app.cli_missions import plot_mission, sensed_cells
+        from app.mission_plot import plot_mission, sensed_cells
 
         done = run_paper(name, library)
         path = plot_mission(done.spec, done.result, out / f"{name}.png", sensed_cells(done.runner))
@@ -248,8 +249,6 @@ def goal_rows(name: str, done: PaperRun, library: Library) -> list[Row]:
 
 def mission_experiment(name: str, figure: str, title: str, paper: str) -> Experiment:
     def run(library: Library, out: Path) -> tuple[list[Row], Path]:
-        from app.cli_missions import plot_mission, sensed_cells
-
         spec = load_mission(examples_dir() / f"{name}.json")
         runner = MissionRunner(spec, library)
         result = runner.run()

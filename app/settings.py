@@ -9,8 +9,19 @@ from typing import Literal
 from pydantic import BaseModel, Field, field_validator
 
 
+def default_data_dir() -> Path:
+    """Where the service keeps its files unless told: ``$XDG_DATA_HOME/screwsnake`` (by default
+    ``~/.local/share/screwsnake``), the same whichever directory the server starts in."""
+    base = os.environ.get("XDG_DATA_HOME") or str(Path.home() / ".local" / "share")
+    return Path(base) / "screwsnake"
+
+
 class Settings(BaseModel):
-    database_url: str = "sqlite:///./var/screwsnake.db"
+    data_dir: Path = Field(default_factory=default_data_dir)  # SCREWSNAKE_DATA_DIR
+    database_url: str | None = None  # None: SQLite at data_dir/screwsnake.db
+    retention_days: float = Field(
+        90.0, ge=0, le=100_000
+    )  # finished missions older than this are deleted (0: kept forever)
     library: Path | None = None  # None: the bundled library
     api_key: str | None = None  # bearer token required (see `auth`) when set
     auth: Literal["writes", "all"] = "writes"  # what the API key guards: writes, or everything
@@ -33,6 +44,12 @@ class Settings(BaseModel):
         if isinstance(value, str):
             return [v.strip().rstrip("/") for v in value.split(",") if v.strip()]
         return value
+
+    def database(self) -> str:
+        """The database URL: the one given, or a SQLite file in the data directory."""
+        if self.database_url:
+            return self.database_url
+        return f"sqlite:///{self.data_dir.expanduser().resolve() / 'screwsnake.db'}"
 
     @classmethod
     def from_env(cls) -> Settings:

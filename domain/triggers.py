@@ -60,6 +60,28 @@ class GoalsChanged:
 
 
 @dataclass(frozen=True)
+class ObstacleAdded:
+    """An operator added a known obstacle to the world model (a live update)."""
+
+    obstacle: Obstacle
+    kind: str = "obstacle_added"
+
+    def detail(self) -> dict[str, Any]:
+        return {"obstacle": self.obstacle.to_dict()}
+
+
+@dataclass(frozen=True)
+class Resumed:
+    """A paused mission resumed: the world may have changed while it stood still."""
+
+    paused_at: float  # model seconds
+    kind: str = "resumed"
+
+    def detail(self) -> dict[str, Any]:
+        return {"paused_at": self.paused_at}
+
+
+@dataclass(frozen=True)
 class Timeout:
     """An action ran past its time budget."""
 
@@ -110,6 +132,8 @@ Trigger = (
     | ShapeChanged
     | NoProgress
     | GoalsChanged
+    | ObstacleAdded
+    | Resumed
     | Timeout
     | Initial
     | PathBlocked

@@ -6,9 +6,10 @@ import secrets
 from dataclasses import dataclass
 from typing import Annotated
 
-from fastapi import Depends, HTTPException, Request
+from fastapi import Depends, Path, Request
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
+from app.api.errors import ApiError
 from app.service.hub import Hub
 from app.service.jobs import Jobs
 from app.service.metrics import Metrics
@@ -36,6 +37,8 @@ def services(request: Request) -> Services:
 
 
 Svc = Annotated[Services, Depends(services)]
+MissionId = Annotated[str, Path(description="the mission's id (a UUID)")]
+JobId = Annotated[str, Path(description="the job's id (a UUID)")]
 bearer = HTTPBearer(auto_error=False)
 
 
@@ -49,6 +52,6 @@ def writer(
     # Bytes, not str: compare_digest refuses non-ASCII strings (a 500 on a stray header byte).
     given = credentials.credentials.encode("utf-8", "surrogateescape") if credentials else None
     if given is None or not secrets.compare_digest(given, key.encode("utf-8")):
-        raise HTTPException(
+        raise ApiError(
             401, "a valid API key is required for writes", headers={"WWW-Authenticate": "Bearer"}
         )

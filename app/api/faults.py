@@ -56,14 +56,12 @@ def install(app: FastAPI, health: DbHealth) -> None:
     async def _unavailable(_: Request, exc: Exception) -> JSONResponse:
         log.error("database unavailable: %s", type(exc).__name__)
         health.failed(exc)
-        response = problem(
-            503, "Database unavailable", f"the database failed ({type(exc).__name__}); retry"
-        )
+        response = problem(503, f"database unavailable: it failed ({type(exc).__name__}); retry")
         response.headers["Retry-After"] = str(RETRY_AFTER)
         return response
 
     async def _refused(_: Request, exc: Exception) -> JSONResponse:
-        return problem(422, "Invalid request", "the database cannot store a value of this request")
+        return problem(422, "the database cannot store a value of this request")
 
     for kind in UNAVAILABLE:
         app.add_exception_handler(kind, _unavailable)

@@ -5,11 +5,12 @@ from __future__ import annotations
 from typing import Any
 
 from fastapi import APIRouter, Request
-from fastapi.responses import JSONResponse, Response
+from fastapi.responses import Response
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 from sqlalchemy import text
 
 from app.api.deps import Svc
+from app.api.errors import PROBLEM, problem
 from app.api.faults import DbHealth
 
 router = APIRouter(tags=["health"])
@@ -20,9 +21,19 @@ def livez() -> dict[str, str]:
     return {"status": "ok"}
 
 
-@router.get("/readyz", response_model=None)
+@router.get(
+    "/readyz",
+    response_model=None,
+    responses={
+        503: {
+            "description": "Not ready: the database failed recently (the detail says how)",
+            "content": {PROBLEM: {"schema": {"$ref": "#/components/schemas/Problem"}}},
+        }
+    },
+)
 def readyz(svc: Svc, request: Request) -> Any:
-    """Ready when the database answers and has not failed recently (see app.api.faults)."""
+    """Ready when the database answers and has not failed recently (see app.api.faults);
+    says which library is loaded."""
     health: DbHealth = request.app.state.db_health
     try:
         with svc.store.engine.connect() as conn:
@@ -30,8 +41,7 @@ def readyz(svc: Svc, request: Request) -> Any:
     except Exception as exc:  # not ready: say why (the kind only: no URL, no path)
         health.failed(exc)
     if not health.healthy:
-        body = {"status": "unavailable", "database": f"failed recently ({health.kind})"}
-        return JSONResponse(body, status_code=503)
+        return problem(503, f"database unavailable: failed recently ({health.kind})")
     return {
         "status": "ok",
         "database": "ok",

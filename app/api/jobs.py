@@ -2,9 +2,10 @@
 
 from __future__ import annotations
 
-from fastapi import APIRouter, Depends, HTTPException, Response
+from fastapi import APIRouter, Depends, Response
 
-from app.api.deps import Svc, writer
+from app.api.deps import JobId, Svc, writer
+from app.api.errors import ApiError, responses
 from app.api.schemas import JobOut, LearnIn
 from app.store.models import JobRow
 
@@ -24,7 +25,13 @@ def job_out(row: JobRow) -> JobOut:
     )
 
 
-@router.post("/jobs/learn", status_code=202, response_model=JobOut, dependencies=[Depends(writer)])
+@router.post(
+    "/jobs/learn",
+    status_code=202,
+    response_model=JobOut,
+    dependencies=[Depends(writer)],
+    responses=responses(401, 422),
+)
 def start_learning(body: LearnIn, response: Response, svc: Svc) -> JobOut:
     job_id = svc.jobs.start(body.model_dump(mode="json"))
     response.headers["Location"] = f"/jobs/{job_id}"
@@ -33,23 +40,27 @@ def start_learning(body: LearnIn, response: Response, svc: Svc) -> JobOut:
     return job_out(row)
 
 
-@router.get("/jobs/{job_id}", response_model=JobOut)
-def get_job(job_id: str, svc: Svc) -> JobOut:
+@router.get("/jobs/{job_id}", response_model=JobOut, responses=responses(404))
+def get_job(job_id: JobId, svc: Svc) -> JobOut:
     row = svc.store.get_job(job_id)
     if row is None:
-        raise HTTPException(404, f"job {job_id} not found")
+        raise ApiError(404, f"job {job_id} not found")
     return job_out(row)
 
 
 @router.post(
-    "/jobs/{job_id}/cancel", status_code=202, response_model=JobOut, dependencies=[Depends(writer)]
+    "/jobs/{job_id}/cancel",
+    status_code=202,
+    response_model=JobOut,
+    dependencies=[Depends(writer)],
+    responses=responses(401, 404, 409),
 )
-def cancel_job(job_id: str, svc: Svc) -> JobOut:
+def cancel_job(job_id: JobId, svc: Svc) -> JobOut:
     row = svc.store.get_job(job_id)
     if row is None:
-        raise HTTPException(404, f"job {job_id} not found")
+        raise ApiError(404, f"job {job_id} not found")
     if not svc.jobs.cancel(job_id):
-        raise HTTPException(409, f"job {job_id} already ended ({row.status})")
+        raise ApiError(409, f"job {job_id} already ended ({row.status})")
     again = svc.store.get_job(job_id)
     assert again is not None
     return job_out(again)

@@ -108,7 +108,7 @@ class RequestGuard:
                 await send({"type": "websocket.close", "code": 4000 + status, "reason": title})
                 return
             headers = {"WWW-Authenticate": "Bearer"} if status == 401 else {}
-            response = problem(status, title, detail, **extra)
+            response = problem(status, detail, **extra)
             response.headers.update(headers)
             await response(scope, receive, send)
             return
@@ -187,7 +187,7 @@ def install(app: FastAPI) -> None:
 
     async def _busy(_: Request, exc: Exception) -> JSONResponse:
         detail = "too many missions are waiting; retry later"
-        response = problem(503, "Service busy", detail)
+        response = problem(503, detail)
         response.headers["Retry-After"] = str(BUSY_RETRY_AFTER)
         return response
 

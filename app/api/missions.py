@@ -4,9 +4,11 @@ from __future__ import annotations
 
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Depends, Header, HTTPException, Query, Response
+from fastapi import APIRouter, Body, Depends, Header, Query, Response
 
-from app.api.deps import Services, Svc, writer
+from app.api.deps import MissionId, Services, Svc, writer
+from app.api.errors import ApiError, responses
+from app.api.examples import mission_examples
 from app.api.limits import check_mission
 from app.api.schemas import (
     GoalOut,
@@ -20,20 +22,11 @@ from app.api.schemas import (
     TransitionOut,
 )
 from app.missions.spec import MissionSpec
+from app.missions.status import TERMINAL, MissionStatus
 from app.service.supervisor import QueueFull
 from app.store.models import MissionRow
 
 router = APIRouter(tags=["missions"])
-STATUSES = (
-    "queued",
-    "planning",
-    "executing",
-    "replanning",
-    "cancelling",
-    "succeeded",
-    "failed",
-    "cancelled",
-)
 
 
 def resource(svc: Services, row: MissionRow) -> MissionOut:
@@ -52,11 +45,11 @@ def resource(svc: Services, row: MissionRow) -> MissionOut:
     return MissionOut(
         id=row.id,
         name=row.name,
-        status=row.status,
+        status=MissionStatus(row.status),
         reason=row.reason,
         created_at=row.created_at,
         transitions=[
-            TransitionOut(status=t.status, at=t.at, reason=t.reason)
+            TransitionOut(status=MissionStatus(t.status), at=t.at, reason=t.reason)
             for t in svc.store.transitions(row.id)
         ],
         goals=[GoalOut.model_validate(g) for g in goals],
@@ -71,37 +64,50 @@ def resource(svc: Services, row: MissionRow) -> MissionOut:
 def found(svc: Services, mission_id: str) -> MissionRow:
     row = svc.store.get_mission(mission_id)
     if row is None:
-        raise HTTPException(404, f"mission {mission_id} not found")
+        raise ApiError(404, f"mission {mission_id} not found")
     return row
 
 
 def check_library(svc: Services, spec: MissionSpec) -> None:
     """Chain steps and reactive operators must name primitives the running library has (422
     naming the field)."""
-    for i, step in enumerate(spec.chain):
-        names = (
-            [step.primitive]
-            if step.primitive
-            else list(step.interpolate.from_ if step.interpolate else [])
-        )
-        for name in names:
-            if name not in svc.library:
-                raise HTTPException(422, f"chain.{i}: primitive {name!r} is not in the library")
+    unknown = spec.unknown_primitive(svc.library)
+    if unknown is not None:
+        i, name = unknown
+        raise ApiError(422, f"chain.{i}: primitive {name!r} is not in the library", f"chain.{i}")
     for op, name in spec.planner.operators.items():
         entry = svc.library.get(name) if name in svc.library else None
         if entry is None or entry.periodic:
             why = "is not in the library" if entry is None else "is periodic (no fixed shape)"
-            raise HTTPException(422, f"planner.operators.{op}: primitive {name!r} {why}")
+            field = f"planner.operators.{op}"
+            raise ApiError(422, f"{field}: primitive {name!r} {why}", field)
 
 
 @router.post(
-    "/missions", status_code=201, response_model=MissionOut, dependencies=[Depends(writer)]
+    "/missions",
+    status_code=201,
+    response_model=MissionOut,
+    dependencies=[Depends(writer)],
+    responses={
+        201: {"description": "Created and queued; `Location` is its URL"},
+        200: {
+            "model": MissionOut,
+            "description": "A replay: this `Idempotency-Key` created this same mission before",
+        },
+        **responses(401, 409, 413, 422, 503),
+    },
 )
 def create_mission(
-    spec: MissionSpec,
+    spec: Annotated[MissionSpec, Body(openapi_examples=mission_examples())],
     response: Response,
     svc: Svc,
-    idempotency_key: Annotated[str | None, Header(max_length=200)] = None,
+    idempotency_key: Annotated[
+        str | None,
+        Header(
+            max_length=200,
+            description="a retry with the same key returns the mission it created (200)",
+        ),
+    ] = None,
 ) -> MissionOut:
     """Validate and store the mission, then queue it; a retried Idempotency-Key returns it again."""
     check_library(svc, spec)
@@ -119,17 +125,23 @@ def create_mission(
             200 if row.request == spec.model_dump(mode="json", by_alias=True) else 409
         )
         if response.status_code == 409:
-            raise HTTPException(409, "Idempotency-Key was used for a different mission")
+            raise ApiError(
+                409,
+                f"Idempotency-Key was used for a different mission ({row.id})",
+                "Idempotency-Key",
+            )
     response.headers["Location"] = f"/missions/{row.id}"
     return resource(svc, row)
 
 
-@router.get("/missions", response_model=MissionPage)
+@router.get("/missions", response_model=MissionPage, responses=responses(422))
 def list_missions(
     svc: Svc,
-    status: Annotated[str | None, Query(pattern="^(" + "|".join(STATUSES) + ")$")] = None,
-    limit: Annotated[int, Query(ge=1, le=200)] = 50,
-    offset: Annotated[int, Query(ge=0, le=10**9)] = 0,
+    status: Annotated[
+        MissionStatus | None, Query(description="only missions in this status")
+    ] = None,
+    limit: Annotated[int, Query(ge=1, le=200, description="page size")] = 50,
+    offset: Annotated[int, Query(ge=0, le=10**9, description="missions to skip")] = 0,
 ) -> MissionPage:
     rows, total = svc.store.list_missions(status, limit, offset)
     return MissionPage(
@@ -137,8 +149,8 @@ def list_missions(
     )
 
 
-@router.get("/missions/{mission_id}", response_model=MissionOut)
-def get_mission(mission_id: str, svc: Svc) -> MissionOut:
+@router.get("/missions/{mission_id}", response_model=MissionOut, responses=responses(404))
+def get_mission(mission_id: MissionId, svc: Svc) -> MissionOut:
     return resource(svc, found(svc, mission_id))
 
 
@@ -147,18 +159,19 @@ def get_mission(mission_id: str, svc: Svc) -> MissionOut:
     response_model=MissionOut,
     status_code=202,
     dependencies=[Depends(writer)],
+    responses=responses(401, 404, 409),
 )
-def cancel_mission(mission_id: str, svc: Svc) -> MissionOut:
+def cancel_mission(mission_id: MissionId, svc: Svc) -> MissionOut:
     row = found(svc, mission_id)
-    if row.status in ("succeeded", "failed", "cancelled"):
-        raise HTTPException(409, f"mission {mission_id} already ended ({row.status})")
+    if row.status in TERMINAL:
+        raise ApiError(409, f"mission {mission_id} already ended ({row.status})")
     svc.supervisor.cancel(mission_id)
     return resource(svc, found(svc, mission_id))
 
 
 def plan_of(svc: Services, mission_id: str) -> PlanOut:
     found(svc, mission_id)
-    plans = svc.store.plans(mission_id)
+    plans = svc.store.plans(mission_id, texts=False, last=True)
     replans = [
         ReplanOut(
             trigger=r.trigger,
@@ -183,32 +196,37 @@ def plan_of(svc: Services, mission_id: str) -> PlanOut:
     )
 
 
-@router.get("/missions/{mission_id}/plan", response_model=PlanOut)
-def get_plan(mission_id: str, svc: Svc) -> PlanOut:
+@router.get("/missions/{mission_id}/plan", response_model=PlanOut, responses=responses(404))
+def get_plan(mission_id: MissionId, svc: Svc) -> PlanOut:
     return plan_of(svc, mission_id)
 
 
-@router.get("/plan", response_model=PlanOut)
+@router.get("/plan", response_model=PlanOut, responses=responses(404, 422))
 def get_plan_query(
-    svc: Svc, mission: Annotated[str | None, Query(max_length=64)] = None
+    svc: Svc,
+    mission: Annotated[
+        str | None, Query(max_length=64, description="a mission's id; none: the latest")
+    ] = None,
 ) -> PlanOut:
     """The plan of ``?mission=ID``, or of the latest mission."""
     if mission is None:
         latest = svc.store.latest_mission()
         if latest is None:
-            raise HTTPException(404, "there are no missions yet")
+            raise ApiError(404, "there are no missions yet")
         mission = latest.id
     return plan_of(svc, mission)
 
 
-@router.get("/missions/{mission_id}/trajectory", response_model=TrajectoryOut)
-def get_trajectory(mission_id: str, svc: Svc) -> TrajectoryOut:
+@router.get(
+    "/missions/{mission_id}/trajectory", response_model=TrajectoryOut, responses=responses(404)
+)
+def get_trajectory(mission_id: MissionId, svc: Svc) -> TrajectoryOut:
     found(svc, mission_id)
     return TrajectoryOut(mission=mission_id, points=svc.store.trajectory(mission_id) or [])
 
 
-@router.get("/missions/{mission_id}/pddl", response_model=list[PddlOut])
-def get_pddl(mission_id: str, svc: Svc) -> list[PddlOut]:
+@router.get("/missions/{mission_id}/pddl", response_model=list[PddlOut], responses=responses(404))
+def get_pddl(mission_id: MissionId, svc: Svc) -> list[PddlOut]:
     found(svc, mission_id)
     return [
         PddlOut(version=p.version, domain=p.domain_pddl, problem=p.problem_pddl, plan=p.plan)
@@ -216,11 +234,13 @@ def get_pddl(mission_id: str, svc: Svc) -> list[PddlOut]:
     ]
 
 
-@router.get("/missions/{mission_id}/tree")
-def get_tree(mission_id: str, svc: Svc) -> dict[str, Any]:
-    """The latest behaviour-tree snapshot the mission broadcast (empty before it runs); an
-    ended mission's comes from the store."""
+@router.get("/missions/{mission_id}/tree", responses=responses(404))
+def get_tree(mission_id: MissionId, svc: Svc) -> dict[str, Any]:
+    """The behaviour tree as last seen: names, types, statuses, feedback, children (empty
+    before it runs; a finished mission's root shows how it ended)."""
     row = found(svc, mission_id)
-    live = svc.hub.last_tree.get(mission_id)
-    tree: dict[str, Any] = live if live is not None else (row.state or {}).get("tree", {})
+    stored: dict[str, Any] = (row.state or {}).get("tree") or {}
+    if row.status in TERMINAL and stored:
+        return stored
+    tree: dict[str, Any] = svc.hub.last_tree.get(mission_id) or stored
     return tree

@@ -5,9 +5,10 @@ from __future__ import annotations
 from typing import Any
 
 from fastapi import APIRouter
-from pydantic import BaseModel
+from pydantic import BaseModel, Field
 
-from app.api.deps import Svc
+from app.api.deps import MissionId, Svc
+from app.api.errors import responses
 from app.api.missions import found, plan_of
 from app.api.schemas import ReplanOut
 
@@ -17,34 +18,38 @@ router = APIRouter(tags=["missions"])
 class WorldOut(BaseModel):
     """The robot's world model as last stored: sensed occupancy and contact cells (centres)."""
 
-    mission: str
-    model_time: float
-    resolution: float | None
-    sensed: list[list[float]]
-    contacts: list[list[float]]
+    mission: str = Field(description="the mission's id")
+    model_time: float = Field(description="when it was stored, model seconds")
+    resolution: float | None = Field(description="cell size of the grid, metres")
+    sensed: list[list[float]] = Field(description="centres [x, y] of cells sensed occupied, m")
+    contacts: list[list[float]] = Field(description="centres [x, y] of cells a bumper felt, m")
 
 
 class PlanVersionOut(BaseModel):
-    version: int
-    at: float | None  # model time the plan was made (None if unknown)
-    plan: list[str]
-    actions: list[dict[str, Any]]
+    """One plan version and when it was made."""
+
+    version: int = Field(description="plan version, 1 for the first")
+    at: float | None = Field(description="when it was made, model seconds (None if unknown)")
+    plan: list[str] = Field(description="the plan's steps (PDDL actions)")
+    actions: list[dict[str, Any]] = Field(description="the steps with their grounding")
 
 
 class ReplayOut(BaseModel):
     """A mission's trajectory rows ``[t, x, y, psi, phi1, phi2, phi3]``, its plans, replans and
     events (model times), for a replay with a time slider."""
 
-    mission: str
-    status: str
-    trajectory: list[list[float]]
-    plans: list[PlanVersionOut]
-    replans: list[ReplanOut]
-    events: list[dict[str, Any]]
+    mission: str = Field(description="the mission's id")
+    status: str = Field(description="the mission's status")
+    trajectory: list[list[float]] = Field(
+        description="rows [t, x, y, ψ, φ1, φ2, φ3]: model seconds, metres, radians"
+    )
+    plans: list[PlanVersionOut] = Field(description="every plan version, oldest first")
+    replans: list[ReplanOut] = Field(description="every replan, oldest first")
+    events: list[dict[str, Any]] = Field(description="the mission's events (model seconds t)")
 
 
-@router.get("/missions/{mission_id}/world", response_model=WorldOut)
-def get_world(mission_id: str, svc: Svc) -> WorldOut:
+@router.get("/missions/{mission_id}/world", response_model=WorldOut, responses=responses(404))
+def get_world(mission_id: MissionId, svc: Svc) -> WorldOut:
     """The sensed world model of a mission (stored about once a second while it runs)."""
     state = found(svc, mission_id).state or {}
     return WorldOut(
@@ -56,8 +61,8 @@ def get_world(mission_id: str, svc: Svc) -> WorldOut:
     )
 
 
-@router.get("/missions/{mission_id}/replay", response_model=ReplayOut)
-def get_replay(mission_id: str, svc: Svc) -> ReplayOut:
+@router.get("/missions/{mission_id}/replay", response_model=ReplayOut, responses=responses(404))
+def get_replay(mission_id: MissionId, svc: Svc) -> ReplayOut:
     """Trajectory, every plan version with its model time, replans and events of a mission."""
     row = found(svc, mission_id)
     state = row.state or {}
@@ -69,7 +74,7 @@ def get_replay(mission_id: str, svc: Svc) -> ReplayOut:
             plan=p.plan,
             actions=p.actions,
         )
-        for p in svc.store.plans(mission_id)
+        for p in svc.store.plans(mission_id, texts=False)
     ]
     return ReplayOut(
         mission=mission_id,

@@ -7,12 +7,12 @@ import math
 from fastapi import APIRouter
 from starlette.concurrency import run_in_threadpool
 
+from app.api.errors import responses
 from app.api.schemas import SimulateIn, SimulateOut
 from sim.controls import Control, FixedShape, PeriodicGait
 from sim.rollout import RolloutConfig, rollout
 
 router = APIRouter(tags=["simulate"])
-MAX_POINTS = 2000
 
 
 def simulate_now(body: SimulateIn) -> SimulateOut:
@@ -24,7 +24,8 @@ def simulate_now(body: SimulateIn) -> SimulateOut:
     config = RolloutConfig(body.duration, body.dt, body.joint_mode)
     result = rollout(control, (body.start.x, body.start.y, body.start.psi), config)
     states = result.states[0]
-    stride = max(1, math.ceil(len(states) / MAX_POINTS))
+    # every stride-th step plus the last: never more than max_points rows
+    stride = max(1, math.ceil((len(states) - 1) / (body.max_points - 1)))
     idx = list(range(0, len(states), stride))
     if idx[-1] != len(states) - 1:
         idx.append(len(states) - 1)
@@ -33,11 +34,15 @@ def simulate_now(body: SimulateIn) -> SimulateOut:
     ]
     end = states[-1]
     return SimulateOut(
-        points=points, end={"x": float(end[0]), "y": float(end[1]), "psi": float(end[2])}
+        points=points,
+        stride=stride,
+        steps=len(states) - 1,
+        end={"x": float(end[0]), "y": float(end[1]), "psi": float(end[2])},
     )
 
 
-@router.post("/simulate", response_model=SimulateOut)
+@router.post("/simulate", response_model=SimulateOut, responses=responses(422))
 async def simulate(body: SimulateIn) -> SimulateOut:
-    """Parameters -> trajectory ``[t, x, y, psi, p1, p2, p3]`` (CPU work off the event loop)."""
+    """Parameters -> trajectory rows ``[t, x, y, psi, p1, p2, p3]``, thinned to at most
+    ``max_points`` rows (every ``stride``-th step, the last always included)."""
     return await run_in_threadpool(simulate_now, body)

@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
-from fastapi import APIRouter, HTTPException
+from fastapi import APIRouter
+from fastapi import Path as PathParam
 from fastapi.responses import FileResponse
 
+from app.api.errors import ApiError, responses
 from app.paper_missions import examples_dir
 
 router = APIRouter(tags=["viewer"])
@@ -25,7 +27,7 @@ def index() -> FileResponse:
 def asset(name: str) -> FileResponse:
     """The viewer's scripts and style sheet (a fixed list: nothing else is served)."""
     if name not in ASSETS:
-        raise HTTPException(404, f"no static file {name!r}")
+        raise ApiError(404, f"no static file {name!r}")
     return FileResponse(STATIC / name, media_type=ASSETS[name])
 
 
@@ -34,10 +36,10 @@ def list_examples() -> dict[str, Any]:
     return {"items": sorted(p.stem for p in examples_dir().glob("*.json"))}
 
 
-@router.get("/examples/{name}")
-def get_example(name: str) -> dict[str, Any]:
+@router.get("/examples/{name}", responses=responses(404))
+def get_example(name: Annotated[str, PathParam(description="an example's name")]) -> dict[str, Any]:
     names = {p.stem: p for p in examples_dir().glob("*.json")}
     if name not in names:
-        raise HTTPException(404, f"example {name!r} not found")
+        raise ApiError(404, f"example {name!r} not found")
     data: dict[str, Any] = json.loads(names[name].read_text())
     return data

@@ -12,10 +12,11 @@ from starlette.websockets import WebSocketState
 
 from app.api.deps import Services
 from app.api.missions import plan_of, resource
+from app.missions.status import TERMINAL
+from app.service.frames import EndFrame
 
 router = APIRouter(tags=["websocket"])
 MAX_CLIENT_MESSAGE = 4096  # bytes: clients only ever send small control messages
-TERMINAL = ("succeeded", "failed", "cancelled")
 
 
 async def _receive(ws: WebSocket, closed: asyncio.Event) -> None:
@@ -84,12 +85,10 @@ async def mission_socket(ws: WebSocket, mission_id: str) -> None:
                 svc.metrics.clients_dropped.inc()
                 await ws.close(code=1013, reason="client too slow")
                 return
-            await ws.send_json(frame)
+            await ws.send_json(frame.model_dump(mode="json"))
             svc.metrics.frames_sent.inc()
-            if frame.get("type") == "end":
+            if isinstance(frame, EndFrame):
                 return
-            if frame.get("type") == "event" and frame.get("status") in TERMINAL:
-                continue
     except (WebSocketDisconnect, RuntimeError):
         pass
     finally:

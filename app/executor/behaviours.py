@@ -278,10 +278,15 @@ class Replan(MissionBehaviour):
         )
         ctx.trigger = None
         if out.record.trigger != "initial":
+            # The log keeps the record without its plans (those are the plan versions); the
+            # websocket's replan event adds them (old, new) to these same fields.
+            record = out.record.to_dict()
             ctx.event(
                 "replan",
-                trigger=out.record.trigger,
-                latency_ms=round(out.record.latency_ms, 3),
+                trigger=record["trigger"],
+                detail=record["detail"],
+                latency_ms=record["latency_ms"],
+                status=record["status"],
                 version=ctx.plan_version,
             )
         if not out.ok:

@@ -30,6 +30,7 @@ class GoalState:
     reached: bool = False
     error: float | None = None
     reached_at: float | None = None
+    removed: bool = False  # removed by a live update: no longer pursued
 
     def distance(self, x: float, y: float) -> float:
         return math.hypot(self.x - x, self.y - y)
@@ -42,6 +43,7 @@ class GoalState:
             "reached": self.reached,
             "error": self.error,
             "reached_at": self.reached_at,
+            "removed": self.removed,
         }
 
 
@@ -134,7 +136,7 @@ class MissionContext:
             self.executed[-1]["end"] = [round(x, 4), round(y, 4)]
 
     def remaining_goals(self) -> list[int]:
-        return [i for i, g in enumerate(self.goals) if not g.reached]
+        return [i for i, g in enumerate(self.goals) if not (g.reached or g.removed)]
 
     def mark_reached(self, index: int) -> None:
         goal = self.goals[index]

@@ -106,8 +106,12 @@ class SimRobot:
         # Simulator truth for tests and benchmarks (which obstacle each contact touched); the
         # executor never reads it.
         self.truth_contacts: list[tuple[float, int]] = []
+        # Like act(): the robot logs its own dropouts; a deformation is for the joint sensors
+        # (and the shape guard) to find, not logged twice.
         self._log: list[dict[str, Any]] = [
-            {"t": e.t, "kind": e.kind, **e.detail} for e in simulator.initial_events
+            {"t": e.t, "kind": e.kind, **e.detail}
+            for e in simulator.initial_events
+            if e.kind == "dropout"
         ]
         self._last = self._observation(simulator.read())
 

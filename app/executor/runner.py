@@ -22,16 +22,19 @@ from app.executor.context import GoalState, MissionContext, MissionResult
 from app.executor.robot import Robot, sim_robot
 from app.executor.tree import build_tree, snapshot
 from app.missions.spec import MissionSpec
+from domain.knowledge import Goal
 from domain.lattice import LatticeSettings
 from domain.lattice_planner import LatticePlanner
 from domain.navigation_strategy import NavigationStrategy
 from domain.pyperplan_adapter import CancelFlag
 from domain.reactive_strategy import ReactiveStrategy
 from domain.strategy import PlanningStrategy
+from domain.triggers import GoalsChanged, ObstacleAdded, Resumed
 from domain.worldmodel import WorldModel
 from primitives.grounding import TICK
 from primitives.library import Library
 from sim.controls import FixedShape
+from sim.obstacles import Obstacle
 
 MAX_RETICKS = 4  # ticks within one control tick while the tree only plans
 TRAJECTORY_POINTS = 2000
@@ -42,6 +45,10 @@ TickHook = Callable[[MissionContext, dict[str, Any]], None]
 
 class MissionError(ValueError):
     """A mission that cannot start (e.g. its start pose overlaps an obstacle)."""
+
+
+class UpdateRefused(ValueError):
+    """A live update that cannot apply now (e.g. removing a goal already reached)."""
 
 
 def make_strategy(spec: MissionSpec, library: Library) -> PlanningStrategy | None:
@@ -88,6 +95,12 @@ class MissionRunner:
         self.started = time.perf_counter()
         self.status: str = "executing"
         self.reason = ""
+        self.paused_at: float | None = None  # model time when paused; None while running
+        unknown = spec.unknown_primitive(library)
+        if unknown is not None:  # the same answer the API gives, not a KeyError mid-run
+            raise MissionError(
+                f"chain.{unknown[0]}: primitive {unknown[1]!r} is not in the library"
+            )
         try:
             self.robot = robot or sim_robot(spec)
         except ValueError as exc:
@@ -143,6 +156,8 @@ class MissionRunner:
         ctx = self.ctx
         if self.cancel.is_set():
             return self._finish("cancelled", "cancelled by request")
+        if self.paused:  # model time stands still until resumed
+            return False
         for _ in range(MAX_RETICKS):
             ctx.command = None
             self.tree.tick_once()
@@ -172,6 +187,61 @@ class MissionRunner:
                 "failed", f"time limit: {self.spec.time_limit:g} model seconds reached"
             )
         return False
+
+    # -- live updates (each a typed trigger: the tree replans on its next tick) -------------------
+    @property
+    def paused(self) -> bool:
+        return self.paused_at is not None
+
+    def _trigger(self, trigger: GoalsChanged | ObstacleAdded | Resumed) -> None:
+        if self.ctx.strategy is None:
+            raise UpdateRefused("this mission has no planner (a chain of primitives)")
+        if self.ctx.trigger is None:  # a pending trigger replans too, with the update in view
+            self.ctx.trigger = trigger
+
+    def add_goal(self, x: float, y: float, tolerance: float) -> int:
+        """Append a goal (its index follows the goals as posted) and replan."""
+        self._trigger(GoalsChanged(added=(Goal(x, y, tolerance),)))
+        self.ctx.goals.append(GoalState(x, y, tolerance))
+        index = len(self.ctx.goals) - 1
+        self.ctx.event("update", update="add_goal", detail={"goal": index, "x": x, "y": y})
+        return index
+
+    def remove_goal(self, index: int) -> None:
+        """Stop pursuing goal ``index`` (as posted) and replan; a reached goal stays."""
+        goals = self.ctx.goals
+        if not 0 <= index < len(goals):
+            raise UpdateRefused(f"goal {index}: no such goal (0..{len(goals) - 1})")
+        goal = goals[index]
+        if goal.reached:
+            raise UpdateRefused(f"goal {index}: already reached at {goal.reached_at} model s")
+        if goal.removed:
+            raise UpdateRefused(f"goal {index}: already removed")
+        self._trigger(GoalsChanged(removed=(Goal(goal.x, goal.y, goal.tolerance),)))
+        goal.removed = True
+        self.ctx.event("update", update="remove_goal", detail={"goal": index})
+
+    def add_obstacle(self, obstacle: Obstacle) -> None:
+        """A known obstacle into the world model (not the simulated world) and replan."""
+        self._trigger(ObstacleAdded(obstacle))
+        self.ctx.world.add_known(obstacle)
+        self.ctx.event("update", update="add_obstacle", detail={"obstacle": obstacle.to_dict()})
+
+    def pause(self) -> None:
+        """Hold still: no ticks, model time stops, until resumed or cancelled."""
+        if self.paused:
+            raise UpdateRefused("already paused")
+        self.paused_at = self.ctx.t
+        self.ctx.event("update", update="pause", detail={})
+
+    def resume(self) -> None:
+        """Go on from where it paused, with a fresh plan."""
+        if self.paused_at is None:
+            raise UpdateRefused("not paused")
+        paused_at, self.paused_at = self.paused_at, None
+        self.ctx.event("update", update="resume", detail={"paused_at": paused_at})
+        if self.ctx.strategy is not None and self.ctx.trigger is None:
+            self.ctx.trigger = Resumed(paused_at)
 
     def run(self) -> MissionResult:
         while not self.step():
@@ -236,4 +306,4 @@ def run_mission(spec: MissionSpec, library: Library) -> MissionResult:
     return MissionRunner(spec, library).run()
 
 
-__all__ = ["MissionError", "MissionRunner", "run_mission"]
+__all__ = ["MissionError", "MissionRunner", "UpdateRefused", "run_mission"]

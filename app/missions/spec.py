@@ -10,6 +10,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from collections.abc import Container
 from pathlib import Path
 from typing import Annotated, Any, Literal
 
@@ -49,62 +50,107 @@ Positive = Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0)]
 
 
 class Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    # Attribute docstrings are the fields' descriptions (units included) in the OpenAPI schema.
+    model_config = ConfigDict(extra="forbid", frozen=True, use_attribute_docstrings=True)
 
 
 class Pose(Strict):
+    """A pose of the robot's tracked point (the head) in the world frame."""
+
     x: Coord = 0.0
+    """x, metres"""
     y: Coord = 0.0
+    """y, metres"""
     psi: Angle = 0.0
+    """heading ψ of the head, radians counter-clockwise from +x (the body trails behind)"""
 
 
 class Point(Strict):
+    """A point in the world frame."""
+
     x: Coord
+    """x, metres"""
     y: Coord
+    """y, metres"""
 
 
 class GoalSpec(Strict):
+    """A goal for the tracked point (the head)."""
+
     x: Coord
+    """goal x, metres (world frame)"""
     y: Coord
+    """goal y, metres (world frame)"""
     tolerance: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=5.0)] = 0.1
+    """metres: the goal counts as reached within 0.4 of this distance"""
 
 
 class JointsShape(Strict):
+    """A body shape given by its joint angles (it must match a library shape)."""
+
     joints: tuple[Joint, Joint, Joint]
+    """joint angles φ1..φ3, radians (±π/2)"""
 
 
 class CircleSpec(Strict):
+    """A circular obstacle."""
+
     type: Literal["circle"]
+    """the obstacle kind"""
     x: Coord
+    """centre x, metres"""
     y: Coord
+    """centre y, metres"""
     radius: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=100)]
+    """metres"""
     known: bool = True
+    """known to the planner from the start; false: hidden, found by the sensors"""
 
 
 class RectangleSpec(Strict):
+    """A (rotated) rectangular obstacle."""
+
     type: Literal["rectangle"]
+    """the obstacle kind"""
     x: Coord
+    """centre x, metres"""
     y: Coord
+    """centre y, metres"""
     width: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=1000)]
+    """extent along its own x axis, metres"""
     height: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=1000)]
+    """extent along its own y axis, metres"""
     angle: Angle = 0.0
+    """rotation about its centre, radians counter-clockwise"""
     known: bool = True
+    """known to the planner from the start; false: hidden, found by the sensors"""
 
 
 class PolygonSpec(Strict):
+    """A polygonal obstacle."""
+
     type: Literal["polygon"]
+    """the obstacle kind"""
     points: Annotated[list[tuple[Coord, Coord]], Field(min_length=3, max_length=64)]
+    """vertices [x, y] in order, metres"""
     known: bool = True
+    """known to the planner from the start; false: hidden, found by the sensors"""
 
 
 ObstacleSpec = Annotated[CircleSpec | RectangleSpec | PolygonSpec, Field(discriminator="type")]
 
 
 class BoundsSpec(Strict):
+    """The arena: walls on all four sides."""
+
     xmin: Coord = -10.0
+    """west wall, metres"""
     xmax: Coord = 10.0
+    """east wall, metres"""
     ymin: Coord = -10.0
+    """south wall, metres"""
     ymax: Coord = 10.0
+    """north wall, metres"""
 
     @model_validator(mode="after")
     def _ordered(self) -> BoundsSpec:
@@ -124,9 +170,14 @@ class BoundsSpec(Strict):
 
 
 class DeformEvent(Strict):
+    """At ``t`` the body is forced into other joint angles (and holds them)."""
+
     t: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, ge=0, le=1e6)]
+    """when, model seconds"""
     type: Literal["deform"]
+    """the event kind"""
     joints: tuple[Joint, Joint, Joint]
+    """the forced joint angles φ1..φ3, radians"""
 
 
 class DropoutEvent(Strict):
@@ -138,6 +189,7 @@ class DropoutEvent(Strict):
         Field(allow_inf_nan=False, ge=0, le=1e6, description="start, model s"),
     ]
     type: Literal["dropout"]
+    """the event kind"""
     sensors: Annotated[
         list[str],
         Field(
@@ -181,8 +233,13 @@ class ExpectSpec(Strict):
 
 
 class PlannerSpec(Strict):
+    """How the mission plans."""
+
     domain: Literal["navigation", "reactive"] = "navigation"
+    """navigation: a state lattice over the library's primitives; reactive: the paper's
+    Table 3 domain"""
     search: Literal["gbf", "astar", "wastar", "ehs", "bfs"] = "gbf"
+    """pyperplan's search algorithm"""
     heuristic: Annotated[
         Literal["lattice", "roadmap", "hff", "hadd", "hmax", "lmcut", "landmark", "blind"],
         Field(
@@ -193,6 +250,7 @@ class PlannerSpec(Strict):
         ),
     ] = "lattice"
     time_limit: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=120)] = 5.0
+    """planning time per (re)plan, wall seconds"""
     spacing: Annotated[
         float,
         StrictNumber(),
@@ -259,31 +317,48 @@ class PlannerSpec(Strict):
 
 
 class SensorSpec(Strict):
+    """The head's range sensors."""
+
     ring: Annotated[int, Field(ge=0, le=32)] = 8
+    """how many range sensors in a ring around the head (0: the forward IR only)"""
     range: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=10)] = 1.0
+    """the ring sensors' range, metres"""
     ir_range: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=10)] = 0.8
+    """the forward IR sensor's range, metres"""
     noise: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, ge=0, le=0.5)] = 0.0
+    """standard deviation of the range noise, metres (seeded by the mission's seed)"""
 
 
 class Reach(Strict):
+    """A chain step ends when the tracked point is this close to a point."""
+
     x: Coord
+    """x, metres"""
     y: Coord
+    """y, metres"""
     tolerance: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=5.0)] = 0.1
+    """metres"""
 
 
 class Until(Strict):
     """When a chain step ends: a point reached, a duration, or a sensor threshold."""
 
     reach: Reach | None = None
+    """end when this point is reached"""
     duration: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=1e5)] | None = (
         None
     )
+    """end after this long, model seconds"""
     sensor: str | None = None
+    """end on this sensor's reading ("ir", "ring0", ...) crossing below or above"""
     below: Annotated[float, StrictNumber(), Field(allow_inf_nan=False)] | None = None
+    """the sensor threshold, metres: end when the reading falls below it"""
     above: Annotated[float, StrictNumber(), Field(allow_inf_nan=False)] | None = None
+    """the sensor threshold, metres: end when the reading rises above it"""
     timeout: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=1e5)] | None = (
         None
     )
+    """give up (the mission fails) after this long, model seconds"""
 
     @model_validator(mode="after")
     def _one(self) -> Until:
@@ -296,15 +371,26 @@ class Until(Strict):
 
 
 class InterpolateSpec(Strict):
+    """A primitive interpolated from three library primitives (the paper's eqs. 16-18)."""
+
     from_: Annotated[list[str], Field(alias="from", min_length=3, max_length=3)]
+    """three library primitive ids or labels"""
     goal: tuple[Coord, Coord]
-    model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
+    """the displacement to reach (start frame), metres"""
+    model_config = ConfigDict(
+        extra="forbid", frozen=True, populate_by_name=True, use_attribute_docstrings=True
+    )
 
 
 class ChainStep(Strict):
+    """One step of a manual chain: a primitive (or an interpolated one) until a condition."""
+
     primitive: str | None = None
+    """a library primitive's id or label (e.g. P4s)"""
     interpolate: InterpolateSpec | None = None
+    """or a primitive interpolated from three"""
     until: Until
+    """when the step ends"""
     heading: Annotated[
         float | None,
         StrictNumber(),
@@ -327,24 +413,41 @@ class ChainStep(Strict):
 
 
 class MissionSpec(Strict):
+    """A mission: goals (or a chain of primitives) in an arena with obstacles and events."""
+
     # No NUL: PostgreSQL cannot store it in a text column.
     name: Annotated[str, Field(max_length=120, pattern=r"^[^\x00]*$")] = "mission"
+    """a name for people"""
     start: Pose = Pose()
+    """the start pose"""
     shape: str | JointsShape = "straight"
+    """the start body shape: a library shape's name, or joint angles"""
     goals: Annotated[list[GoalSpec], Field(max_length=MAX_GOALS)] = []
+    """the goals; their indices (as posted) name them in results and live updates"""
     order: Literal["given", "any"] = "given"
+    """visit the goals in the given order, or in any order (the planner picks)"""
     obstacles: Annotated[list[ObstacleSpec], Field(max_length=MAX_OBSTACLES)] = []
+    """obstacles, known to the planner or hidden"""
     bounds: BoundsSpec = BoundsSpec()
+    """the arena's walls"""
     events: Annotated[list[EventSpec], Field(max_length=MAX_EVENTS)] = []
+    """things that happen at model times: deformations, sensor dropouts"""
     planner: PlannerSpec = PlannerSpec()
+    """how to plan"""
     sensors: SensorSpec = SensorSpec()
+    """the range sensors"""
     chain: Annotated[list[ChainStep], Field(max_length=MAX_CHAIN)] = []
+    """instead of goals: primitives run one after the other"""
     speed: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, ge=0, le=10_000)] = 0.0
+    """model seconds per wall second; 0 runs as fast as possible"""
     seed: Annotated[int, Field(ge=0, le=2**32 - 1)] = 0
+    """seeds the sensor noise: a mission and seed run the same every time"""
     time_limit: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=36_000)] = (
         1800.0
     )
+    """the mission fails after this long, model seconds"""
     max_replans: Annotated[int, Field(ge=0, le=10_000)] = 500
+    """the mission fails after this many replans"""
     expect: Annotated[
         ExpectSpec | None, Field(description="the expected outcome (benchmarks); not used to run")
     ] = None
@@ -421,6 +524,16 @@ class MissionSpec(Strict):
                         f"goals.{i}: closer to obstacles.{j} than the robot can reach "
                         f"({r:g} m around the tracked point, less 0.4 of the tolerance)"
                     )
+
+    def unknown_primitive(self, known: Container[str]) -> tuple[int, str] | None:
+        """The first chain step naming a primitive that is not in ``known``: (step, name)."""
+        for i, step in enumerate(self.chain):
+            names = [step.primitive] if step.primitive else []
+            names += list(step.interpolate.from_) if step.interpolate else []
+            for name in names:
+                if name not in known:
+                    return i, name
+        return None
 
     def world_obstacles(self) -> list[Obstacle]:
         return [obstacle_from_dict(o.model_dump()) for o in self.obstacles]

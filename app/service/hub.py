@@ -11,7 +11,9 @@ import asyncio
 from collections import deque
 from typing import Any
 
-Frame = dict[str, Any]
+from app.service.frames import EndFrame, StateFrame, StreamFrame
+
+Frame = StreamFrame
 
 
 class Channel:
@@ -27,7 +29,7 @@ class Channel:
     def offer(self, frame: Frame) -> None:
         if self.overflowed:
             return
-        if frame.get("type") == "state":
+        if isinstance(frame, StateFrame):
             if self.state is not None:
                 self.dropped += 1
             self.state = frame
@@ -72,9 +74,9 @@ class Hub:
                 del self.channels[mission_id]
 
     def publish(self, mission_id: str, frame: Frame) -> None:
-        if frame.get("type") == "state" and "tree" in frame:
-            self.last_tree[mission_id] = frame["tree"]
-        elif frame.get("type") == "end":  # the store keeps the last tree from here on
+        if isinstance(frame, StateFrame):
+            self.last_tree[mission_id] = frame.tree
+        elif isinstance(frame, EndFrame):  # the store keeps the last tree from here on
             self.last_tree.pop(mission_id, None)
         for channel in list(self.channels.get(mission_id, ())):
             channel.offer(frame)

@@ -20,15 +20,37 @@ import queue as queue_module
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
+from datetime import UTC, datetime, timedelta
 from multiprocessing.synchronize import Event as ProcessEvent
 from typing import Any
 
+from pydantic import ValidationError
 from sqlalchemy.exc import SQLAlchemyError
 
+from app.missions.status import TERMINAL, MissionStatus
+from app.service.frames import (
+    EndFrame,
+    PlanFrame,
+    ReplanEvent,
+    StateFrame,
+    StatusEvent,
+    parse_frame,
+)
 from app.service.hub import Frame, Hub
+from app.service.messages import (
+    Ended,
+    PlanMade,
+    Publish,
+    Replanned,
+    SaveState,
+    TrajectoryDone,
+    Transition,
+    Update,
+    WorkerMessage,
+)
 from app.service.metrics import Metrics
 from app.service.reconcile import reconcile
-from app.service.worker import Message, run_mission_process
+from app.service.worker import run_mission_process
 from app.settings import Settings
 from app.store.repo import Store
 from primitives.library import Library
@@ -47,6 +69,9 @@ class QueueFull(Exception):
     """More missions wait than ``max_queued`` allows."""
 
 
+PRUNE_SECONDS = 3600.0  # wall seconds between retention sweeps
+
+
 class Supervisor:
     def __init__(
         self, store: Store, library: Library, hub: Hub, settings: Settings, metrics: Metrics
@@ -60,6 +85,7 @@ class Supervisor:
         )
         self.pool = ThreadPoolExecutor(settings.max_running, thread_name_prefix="mission")
         self.cancels: dict[str, ProcessEvent] = {}
+        self.updates: dict[str, multiprocessing.Queue[Update]] = {}  # running missions' inboxes
         self.running: set[str] = set()
         self.cancel_asked: dict[str, float] = {}  # mission -> monotonic time of its cancel
         self.known: set[str] = set()  # submitted, not started yet (bounded by max_queued)
@@ -70,6 +96,7 @@ class Supervisor:
         self.queue: asyncio.Queue[str] | None = None
         self.slots: asyncio.Semaphore | None = None
         self.tasks: set[asyncio.Task[Any]] = set()
+        self.pruned_at = 0.0  # monotonic time of the last retention sweep
 
     # -- lifecycle (event loop side) ----------------------------------------------------------
     async def start(self) -> None:
@@ -81,6 +108,7 @@ class Supervisor:
                 "mission %s was running when the server stopped: failed/interrupted", mission_id
             )
         self.store.interrupt_jobs()
+        self.prune()
         for mission_id in self.store.queued():
             self.submit(mission_id, force=True)
         self._keep(asyncio.create_task(self._dispatch()))
@@ -149,7 +177,7 @@ class Supervisor:
         that does not stop in ``CANCEL_GRACE`` is stopped)."""
         with self.lock:  # against _work starting it meanwhile
             row = self.store.get_mission(mission_id)
-            if row is None or row.status in ("succeeded", "failed", "cancelled"):
+            if row is None or row.status in TERMINAL:
                 return False
             if mission_id in self.running:
                 self.cancel_asked.setdefault(mission_id, time.monotonic())
@@ -158,21 +186,25 @@ class Supervisor:
             else:
                 running = False
                 ended = self.store.transition(
-                    mission_id, "cancelled", "cancelled before it started"
+                    mission_id, MissionStatus.CANCELLED, "cancelled before it started"
                 )
                 self.known.discard(mission_id)  # its queue entry is skipped when it comes up
                 self.metrics.queued.set(len(self.known))
         if running:
-            if self.store.transition(mission_id, "cancelling", "cancel requested"):
+            reason = "cancel requested"
+            if self.store.transition(mission_id, MissionStatus.CANCELLING, reason):
                 self._publish(
-                    mission_id, {"type": "event", "kind": "status", "status": "cancelling"}
+                    mission_id,
+                    StatusEvent(
+                        type="event", kind="status", status=MissionStatus.CANCELLING, reason=reason
+                    ),
                 )
             return True
         if ended:
+            reason = "cancelled before it started"
             self.metrics.finished.labels("cancelled").inc()
             self._publish(
-                mission_id,
-                {"type": "end", "status": "cancelled", "reason": "cancelled before it started"},
+                mission_id, EndFrame(type="end", status=MissionStatus.CANCELLED, reason=reason)
             )
         return True
 
@@ -180,7 +212,27 @@ class Supervisor:
         """Tell websocket clients a mission ended (as the store now says)."""
         row = self.store.get_mission(mission_id)
         if row is not None:
-            self._publish(mission_id, {"type": "end", "status": row.status, "reason": row.reason})
+            end = EndFrame(type="end", status=MissionStatus(row.status), reason=row.reason)
+            self._publish(mission_id, end)
+
+    def update(self, mission_id: str, update: Update) -> bool:
+        """Send a live update to a running mission's worker; False if it is not running."""
+        inbox = self.updates.get(mission_id)
+        if inbox is None:
+            return False
+        inbox.put(update)
+        return True
+
+    def prune(self) -> int:
+        """Delete finished missions older than the retention setting (0 keeps them all)."""
+        self.pruned_at = time.monotonic()
+        days = self.settings.retention_days
+        if days <= 0:
+            return 0
+        gone = self.store.prune(datetime.now(UTC) - timedelta(days=days))
+        if gone:
+            log.info("retention: deleted %d missions that ended over %g days ago", gone, days)
+        return gone
 
     # -- worker thread side --------------------------------------------------------------------
     def _publish(self, mission_id: str, frame: Frame) -> None:
@@ -188,11 +240,15 @@ class Supervisor:
             self.loop.call_soon_threadsafe(self.hub.publish, mission_id, frame)
 
     def _transition(
-        self, mission_id: str, status: str, reason: str = "", state: dict[str, Any] | None = None
+        self,
+        mission_id: str,
+        status: MissionStatus,
+        reason: str = "",
+        state: dict[str, Any] | None = None,
     ) -> None:
         if self.store.transition(mission_id, status, reason, state):  # written before broadcast
             self._publish(
-                mission_id, {"type": "event", "kind": "status", "status": status, "reason": reason}
+                mission_id, StatusEvent(type="event", kind="status", status=status, reason=reason)
             )
 
     def _work(self, mission_id: str) -> None:
@@ -215,7 +271,7 @@ class Supervisor:
                 else f"server error ({type(exc).__name__})"
             )
             with contextlib.suppress(Exception):  # the database may still be down: reconciled
-                self._end(mission_id, "failed", reason, None)
+                self._end(mission_id, MissionStatus.FAILED, reason, None)
         finally:
             with self.lock:
                 self.running.discard(mission_id)
@@ -225,7 +281,8 @@ class Supervisor:
             self.metrics.running.dec()
 
     def _execute(self, mission_id: str, request: dict[str, Any], cancel: ProcessEvent) -> None:
-        messages: multiprocessing.Queue[Message] = CONTEXT.Queue()
+        messages: multiprocessing.Queue[WorkerMessage] = CONTEXT.Queue()
+        inbox: multiprocessing.Queue[Update] = CONTEXT.Queue()
         wall_limit = self.settings.wall_limit
         args = (
             mission_id,
@@ -236,12 +293,14 @@ class Supervisor:
             cancel,
             os.getpid(),
             wall_limit,
+            inbox,
         )
         process = CONTEXT.Process(
             target=run_mission_process, args=args, name=f"mission-{mission_id[:8]}", daemon=True
         )
         started = time.monotonic()
         process.start()
+        self.updates[mission_id] = inbox
         try:
             while True:
                 stop = self._overdue(mission_id, started, wall_limit)
@@ -260,7 +319,7 @@ class Supervisor:
                             return
                         self._end(
                             mission_id,
-                            "failed",
+                            MissionStatus.FAILED,
                             f"worker process died (exit code {process.exitcode})",
                             None,
                         )
@@ -272,6 +331,9 @@ class Supervisor:
             process.kill()
             raise
         finally:
+            self.updates.pop(mission_id, None)
+            inbox.close()
+            inbox.cancel_join_thread()  # updates nobody will read any more
             process.join(timeout=10)
             if process.is_alive():
                 process.kill()
@@ -280,18 +342,18 @@ class Supervisor:
 
     def _overdue(
         self, mission_id: str, started: float, wall_limit: float
-    ) -> tuple[str, str] | None:
+    ) -> tuple[MissionStatus, str] | None:
         """(status, reason) when a worker must be stopped: a cancel it did not honour within
         ``CANCEL_GRACE``, or a wall-clock limit it overran by ``WALL_GRACE``."""
         now = time.monotonic()
         asked = self.cancel_asked.get(mission_id)
         if asked is not None and now - asked > CANCEL_GRACE:
-            return "cancelled", CANCELLED
+            return MissionStatus.CANCELLED, CANCELLED
         if now - started > wall_limit + WALL_GRACE:
-            return "failed", f"wall-clock limit: {wall_limit:g} s reached"
+            return MissionStatus.FAILED, f"wall-clock limit: {wall_limit:g} s reached"
         return None
 
-    def _drain(self, mission_id: str, messages: multiprocessing.Queue[Message]) -> bool:
+    def _drain(self, mission_id: str, messages: multiprocessing.Queue[WorkerMessage]) -> bool:
         """Handle what a finished worker left in the queue; True if that ended the mission."""
         while True:
             try:
@@ -301,54 +363,91 @@ class Supervisor:
             if self._handle(mission_id, message):
                 return True
 
-    def _handle(self, mission_id: str, message: Message) -> bool:
+    def _handle(self, mission_id: str, message: WorkerMessage) -> bool:
         """Store, then broadcast, one worker message; True at the end."""
-        kind = message[0]
-        if kind == "frame":
-            frame = message[1]
-            if frame.get("type") == "state" and "tree" in frame:
-                self.trees[mission_id] = frame["tree"]
-            self._publish(mission_id, frame)
-        elif kind == "state":
-            self.store.save_state(mission_id, message[1])
-        elif kind == "transition":
-            self._transition(mission_id, message[1], message[2], message[3])
-        elif kind == "plan":
-            _, version, domain, domain_pddl, problem_pddl, plan, actions = message
-            self.store.add_plan(
-                mission_id, version, domain, domain_pddl, problem_pddl, plan, actions
-            )
-            self._publish(
-                mission_id, {"type": "plan", "version": version, "plan": plan, "actions": actions}
-            )
-        elif kind == "replan":
-            record = message[1]
+        if isinstance(message, Publish):
+            try:
+                frame = parse_frame(message.frame)
+            except ValidationError:  # a bug in the worker: say so, never send it to clients
+                log.exception("mission %s: a frame breaks the protocol", mission_id)
+            else:
+                if isinstance(frame, StateFrame):
+                    self.trees[mission_id] = frame.tree
+                self._publish(mission_id, frame)
+        elif isinstance(message, SaveState):
+            self.store.save_state(mission_id, message.state)
+        elif isinstance(message, Transition):
+            self._transition(mission_id, message.status, message.reason, message.state)
+        elif isinstance(message, Replanned):
+            # replanning (status), the replan (event), then its plan, then executing again
+            record = message.record
             self.store.add_replan(mission_id, record)
             self.metrics.replan_latency.observe(record["latency_ms"] / 1000)
-            self._transition(mission_id, "replanning", record["trigger"])
-            self._transition(mission_id, "executing")
-            self._publish(mission_id, {"type": "event", "kind": "replan", **record})
-        elif kind == "trajectory":
-            self.store.save_trajectory(mission_id, message[1])
-        elif kind == "end":
-            _, status, reason, state = message
-            if status == "cancelled" and self.shutting_down.is_set():
-                status, reason = "failed", "interrupted (server shut down)"
-            self._end(mission_id, status, reason, state)
+            self._transition(mission_id, MissionStatus.REPLANNING, record["trigger"])
+            self._publish(
+                mission_id,
+                ReplanEvent(
+                    type="event",
+                    kind="replan",
+                    t=message.t,
+                    trigger=record["trigger"],
+                    detail=record["detail"],
+                    latency_ms=record["latency_ms"],
+                    old=record["old"],
+                    new=record["new"],
+                    status=record["status"],
+                    version=message.version,
+                ),
+            )
+        elif isinstance(message, PlanMade):
+            self.store.add_plan(
+                mission_id,
+                message.version,
+                message.domain,
+                message.domain_pddl,
+                message.problem_pddl,
+                message.plan,
+                message.actions,
+            )
+            self._publish(
+                mission_id,
+                PlanFrame(
+                    type="plan",
+                    version=message.version,
+                    plan=message.plan,
+                    actions=message.actions,
+                ),
+            )
+            if message.version > 1:
+                self._transition(mission_id, MissionStatus.EXECUTING)
+        elif isinstance(message, TrajectoryDone):
+            self.store.save_trajectory(mission_id, message.points)
+        elif isinstance(message, Ended):
+            status, reason = message.status, message.reason
+            if status == MissionStatus.CANCELLED and self.shutting_down.is_set():
+                status, reason = MissionStatus.FAILED, "interrupted (server shut down)"
+            self._end(mission_id, status, reason, message.state)
             return True
         return False
 
-    def _end(self, mission_id: str, status: str, reason: str, state: dict[str, Any] | None) -> None:
+    def _end(
+        self,
+        mission_id: str,
+        status: MissionStatus,
+        reason: str,
+        state: dict[str, Any] | None,
+    ) -> None:
         tree = self.trees.pop(mission_id, None)
         if tree is not None:  # kept in the store, no longer in memory (GET /missions/{id}/tree)
             if state is None:
                 row = self.store.get_mission(mission_id)
                 state = dict(row.state or {}) if row is not None else {}
-            state = {**state, "tree": tree}
+            state = {"tree": tree, **state}  # the worker's final tree, when it sent one, wins
         if self.store.transition(mission_id, status, reason, state):
             self.metrics.finished.labels(status).inc()
+        if time.monotonic() - self.pruned_at > PRUNE_SECONDS:
+            self.prune()
         row = self.store.get_mission(mission_id)
-        final = row.status if row else status
-        self._publish(
-            mission_id, {"type": "end", "status": final, "reason": row.reason if row else reason}
-        )
+        final = MissionStatus(row.status) if row else status
+        end = EndFrame(type="end", status=final, reason=row.reason if row else reason)
+        self._publish(mission_id, end)

@@ -9,21 +9,40 @@ from __future__ import annotations
 
 import contextlib
 import os
+import queue as queue_module
 import threading
 import time
 from multiprocessing.queues import Queue
 from multiprocessing.synchronize import Event
 from typing import Any
 
-from app.executor.runner import MissionError, MissionRunner
+from app.executor.runner import MissionError, MissionRunner, UpdateRefused
 from app.missions.spec import MissionSpec
+from app.missions.status import MissionStatus
+from app.service.messages import (
+    AddGoal,
+    AddObstacle,
+    Ended,
+    Pause,
+    PlanMade,
+    Publish,
+    RemoveGoal,
+    Replanned,
+    Resume,
+    SaveState,
+    TrajectoryDone,
+    Transition,
+    Update,
+    WorkerMessage,
+)
 from primitives.library import Library
+from sim.obstacles import obstacle_from_dict
 
 WORKER_NICENESS = 10
 STATE_SAVE_SECONDS = 1.0  # wall seconds between state writes of a running mission
+PAUSED_POLL_SECONDS = 0.05  # how often a paused mission looks for resume or cancel
 EVENTS_KEPT = 1000  # events kept in a mission's stored state (the newest)
 PACE_SLICE = 0.25  # longest wait while pacing: cancels and the wall clock are checked between
-Message = tuple[Any, ...]
 
 
 def mission_state(runner: MissionRunner) -> dict[str, Any]:
@@ -41,34 +60,66 @@ def mission_state(runner: MissionRunner) -> dict[str, Any]:
         "sensed": world.get("sensed", []),
         "contacts": world.get("contact", []),
         "resolution": world.get("resolution"),
-        # For the viewer's replay: every event (the newest EVENTS_KEPT), and the model time at
-        # which each plan version was made (index = version - 1).
+        # For the viewer's replay and the event log (GET /missions/{id}/events): every event
+        # (the newest EVENTS_KEPT), and the model time at which each plan version was made
+        # (index = version - 1).
         "events": ctx.events[-EVENTS_KEPT:],
         "plan_times": [round(r.at, 3) for r in ctx.replans],
     }
 
 
-def plan_messages(runner: MissionRunner, seen: int) -> list[Message]:
-    """("plan", ...) and ("replan", ...) messages for plans made since version ``seen``."""
+def plan_message(runner: MissionRunner, index: int) -> PlanMade:
+    """The plan message of plan version ``index + 1``."""
     ctx = runner.ctx
-    out: list[Message] = []
-    domain = ctx.spec.planner.domain
-    for entry, record in zip(ctx.pddl[seen:], ctx.replans[seen:], strict=False):
-        actions = runner.plan_actions() if entry["version"] == ctx.plan_version else []
-        out.append(
-            (
-                "plan",
-                entry["version"],
-                domain,
-                entry["domain"],
-                entry["problem"],
-                entry["plan"],
-                actions,
-            )
-        )
-        if record.trigger != "initial":
-            out.append(("replan", record.to_dict()))
+    entry = ctx.pddl[index]
+    actions = runner.plan_actions() if entry["version"] == ctx.plan_version else []
+    return PlanMade(
+        entry["version"],
+        ctx.spec.planner.domain,
+        entry["domain"],
+        entry["problem"],
+        entry["plan"],
+        actions,
+    )
+
+
+def news(runner: MissionRunner, events_sent: int, versions: int) -> list[WorkerMessage]:
+    """What happened since: events in order; a replan as its record, then its plan (so the
+    ``replanning`` status comes before the new ``plan`` frame); a first plan after them."""
+    ctx = runner.ctx
+    out: list[WorkerMessage] = []
+    for event in ctx.events[events_sent:]:
+        if event["kind"] == "replan":
+            version = int(event["version"])
+            record = ctx.replans[version - 1].to_dict()
+            out.append(Replanned(record, version, float(event["t"])))
+            out.append(plan_message(runner, version - 1))
+            versions = max(versions, version)
+        else:
+            out.append(Publish({"type": "event", **event}))
+    for index in range(versions, ctx.plan_version):  # plans without a replan: the first
+        out.append(plan_message(runner, index))
     return out
+
+
+def apply_update(runner: MissionRunner, update: Update) -> list[WorkerMessage]:
+    """Apply a live update to the runner; the status change it causes, if any."""
+    try:
+        if isinstance(update, AddGoal):
+            runner.add_goal(update.x, update.y, update.tolerance)
+        elif isinstance(update, RemoveGoal):
+            runner.remove_goal(update.index)
+        elif isinstance(update, AddObstacle):
+            runner.add_obstacle(obstacle_from_dict(update.obstacle))
+        elif isinstance(update, Pause):
+            runner.pause()
+            return [Transition(MissionStatus.PAUSED, "pause requested", mission_state(runner))]
+        elif isinstance(update, Resume):
+            runner.resume()
+            return [Transition(MissionStatus.EXECUTING, "resumed", mission_state(runner))]
+    except UpdateRefused as exc:  # raced with the mission (e.g. the goal was reached meanwhile)
+        runner.ctx.event("update", update=f"{update.kind} refused", detail={"reason": str(exc)})
+    return []
 
 
 def watch_server(server_pid: int, period: float = 1.0) -> None:
@@ -90,21 +141,33 @@ def run_mission_process(
     request: dict[str, Any],
     library: Library,
     ws_rate: float,
-    queue: Queue[Message],
+    queue: Queue[WorkerMessage],
     cancel: Event,
     server_pid: int,
     wall_limit: float = float("inf"),
+    updates: Queue[Update] | None = None,
 ) -> None:
-    """The process target: run the mission, report through ``queue``, always end with ("end", ...)."""
+    """The process target: run the mission, report through ``queue``, always end with Ended."""
     threading.Thread(
         target=watch_server, args=(server_pid,), daemon=True, name="watch-server"
     ).start()
     with contextlib.suppress(OSError):
         os.nice(WORKER_NICENESS)  # the API process keeps priority: requests stay fast under load
     try:
-        _run(mission_id, request, library, ws_rate, queue, cancel, wall_limit)
+        _run(mission_id, request, library, ws_rate, queue, cancel, wall_limit, updates)
     except Exception as exc:  # report, never die silently (and never with a server path)
-        queue.put(("end", "failed", f"server error ({type(exc).__name__})", None))
+        queue.put(Ended(MissionStatus.FAILED, f"server error ({type(exc).__name__})"))
+
+
+def pending(updates: Queue[Update] | None) -> list[Update]:
+    """The live updates the API sent since the last tick (none without a queue)."""
+    out: list[Update] = []
+    while updates is not None:
+        try:
+            out.append(updates.get_nowait())
+        except queue_module.Empty:
+            break
+    return out
 
 
 def _run(
@@ -112,50 +175,61 @@ def _run(
     request: dict[str, Any],
     library: Library,
     ws_rate: float,
-    queue: Queue[Message],
+    queue: Queue[WorkerMessage],
     cancel: Event,
     wall_limit: float,
+    updates: Queue[Update] | None,
 ) -> None:
     begun = time.perf_counter()  # the wall-clock limit counts planning too
     spec = MissionSpec.model_validate(request)
-    queue.put(("transition", "planning", "", None))
+    queue.put(Transition(MissionStatus.PLANNING))
     try:
         runner = MissionRunner(spec, library, mission_id=mission_id.replace("-", ""), cancel=cancel)
     except MissionError as exc:
-        queue.put(("end", "failed", str(exc), None))
+        queue.put(Ended(MissionStatus.FAILED, str(exc)))
         return
     started = time.perf_counter()
     last_state = last_save = 0.0
     versions, events_sent, executing = 0, 0, False
+    paused_since: float | None = None
     period = 1.0 / ws_rate
     while True:
+        for update in pending(updates):
+            for message in apply_update(runner, update):
+                queue.put(message)
+        if runner.paused and paused_since is None:
+            paused_since = time.perf_counter()
+        elif not runner.paused and paused_since is not None:
+            started += time.perf_counter() - paused_since  # pacing ignores the pause
+            paused_since = None
         done = runner.step()
         ctx = runner.ctx
-        if ctx.plan_version > versions:
-            for message in plan_messages(runner, versions):
-                queue.put(message)
-            versions = ctx.plan_version
-        for event in ctx.events[events_sent:]:
-            queue.put(("frame", {"type": "event", **event}))
-        events_sent = len(ctx.events)
+        for message in news(runner, events_sent, versions):
+            queue.put(message)
+        events_sent, versions = len(ctx.events), ctx.plan_version
         if done:
             break
         if time.perf_counter() - begun > wall_limit:
             runner.abort("failed", f"wall-clock limit: {wall_limit:g} s reached")
             break
-        if not executing:
-            queue.put(("transition", "executing", "", mission_state(runner)))
+        if not executing and not runner.paused:  # a pause before the first tick stays paused
+            queue.put(Transition(MissionStatus.EXECUTING, "", mission_state(runner)))
             executing = True
         wall = time.perf_counter()
         if wall - last_state >= period:
-            queue.put(("frame", {"type": "state", **runner.snapshot()}))
+            queue.put(Publish({"type": "state", **runner.snapshot()}))
             last_state = wall
         if wall - last_save >= STATE_SAVE_SECONDS:
-            queue.put(("state", mission_state(runner)))
+            queue.put(SaveState(mission_state(runner)))
             last_save = wall
-        if spec.speed > 0:  # pace model time against the wall clock
+        if runner.paused:
+            cancel.wait(PAUSED_POLL_SECONDS)
+        elif spec.speed > 0:  # pace model time against the wall clock
             ahead = ctx.t / spec.speed - (time.perf_counter() - started)
             if ahead > 0:
                 cancel.wait(min(ahead, PACE_SLICE))
-    queue.put(("trajectory", runner.trajectory()))
-    queue.put(("end", runner.status, runner.reason, mission_state(runner)))
+    # the last state frame: the tree as it ended (its root SUCCESS or FAILURE, not RUNNING)
+    queue.put(Publish({"type": "state", **runner.snapshot()}))
+    queue.put(TrajectoryDone(runner.trajectory()))
+    final = mission_state(runner) | {"tree": runner.snapshot()["tree"]}
+    queue.put(Ended(MissionStatus(runner.status), runner.reason, final))

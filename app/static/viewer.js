@@ -216,8 +216,6 @@ function connect(id, token) {
       showTree(f.tree, f.t); showPlan(state.plan);
     } else if (f.type === "plan") showPlan(f.actions, f.version);
     else if (f.type === "event") {
-      // A replan comes twice: from the tree (with its plan version) and from the store's record.
-      if (f.kind === "replan" && "old" in f) return;
       if (f.kind === "status") {
         state.status = f.status; if (f.reason) state.reason = f.reason;
         const badge = document.querySelector(`#missions li[data-id="${id}"] .st`); // list polls slower

@@ -5,7 +5,7 @@ from __future__ import annotations
 from datetime import UTC, datetime
 from typing import Any
 
-from sqlalchemy import JSON, DateTime, Float, ForeignKey, Integer, String, Text
+from sqlalchemy import JSON, DateTime, Float, ForeignKey, Integer, LargeBinary, String, Text
 from sqlalchemy.engine import Dialect
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 from sqlalchemy.types import TypeDecorator
@@ -65,6 +65,10 @@ class PlanRow(Base):
     problem_pddl: Mapped[str] = mapped_column(Text)
     plan: Mapped[list[str]] = mapped_column(JSON)
     actions: Mapped[list[dict[str, Any]]] = mapped_column(JSON)
+    # Newer rows keep the texts, plan and actions in blobs (above: "" and []); older inline.
+    domain_ref: Mapped[str | None] = mapped_column(String(64), nullable=True)
+    problem_ref: Mapped[str | None] = mapped_column(String(64), nullable=True)
+    steps_ref: Mapped[str | None] = mapped_column(String(64), nullable=True)  # plan, actions
 
 
 class ReplanRow(Base):
@@ -80,6 +84,7 @@ class ReplanRow(Base):
     old: Mapped[list[str]] = mapped_column(JSON)
     new: Mapped[list[str]] = mapped_column(JSON)
     status: Mapped[str] = mapped_column(String(16))
+    plans_ref: Mapped[str | None] = mapped_column(String(64), nullable=True)  # old, new
 
 
 class TrajectoryRow(Base):
@@ -88,6 +93,17 @@ class TrajectoryRow(Base):
         ForeignKey("missions.id", ondelete="CASCADE"), primary_key=True
     )
     points: Mapped[list[list[float]]] = mapped_column(JSON)
+    points_ref: Mapped[str | None] = mapped_column(String(64), nullable=True)
+
+
+class BlobRow(Base):
+    """A text or JSON document stored once (by its SHA-256), compressed."""
+
+    __tablename__ = "blobs"
+    sha256: Mapped[str] = mapped_column(String(64), primary_key=True)
+    codec: Mapped[str] = mapped_column(String(8))
+    size: Mapped[int] = mapped_column(Integer)  # bytes before compression
+    data: Mapped[bytes] = mapped_column(LargeBinary)
 
 
 class LibraryVersionRow(Base):

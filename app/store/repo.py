@@ -10,14 +10,18 @@ import hashlib
 import threading
 import uuid
 from collections.abc import Sequence
+from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any
 
-from sqlalchemy import Engine, func, select, update
+from sqlalchemy import Engine, delete, func, select, union, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import sessionmaker
 
+from app.missions.status import ACTIVE, TERMINAL
+from app.store import blobs
 from app.store.models import (
+    BlobRow,
     JobRow,
     LibraryVersionRow,
     MissionRow,
@@ -27,8 +31,17 @@ from app.store.models import (
     TransitionRow,
 )
 
-TERMINAL = ("succeeded", "failed", "cancelled")
-ACTIVE = ("planning", "executing", "replanning", "cancelling")
+
+@dataclass(frozen=True)
+class StoredPlan:
+    """A plan version as stored: its PDDL (empty when not asked for), steps and actions."""
+
+    version: int
+    domain: str
+    domain_pddl: str
+    problem_pddl: str
+    plan: list[str]
+    actions: list[dict[str, Any]]
 
 
 def now() -> datetime:
@@ -118,10 +131,10 @@ class Store:
             if row is None or row.status in TERMINAL:
                 return False
             t = now()
-            row.status, row.reason, row.updated_at = status, reason, t
+            row.status, row.reason, row.updated_at = str(status), reason, t
             if state is not None:
                 row.state = state
-            s.add(TransitionRow(mission_id=mission_id, status=status, at=t, reason=reason))
+            s.add(TransitionRow(mission_id=mission_id, status=str(status), at=t, reason=reason))
             s.commit()
             return True
 
@@ -137,7 +150,7 @@ class Store:
     def interrupt_unfinished(self) -> list[str]:
         """At start-up: missions left active by a crash become failed/interrupted."""
         with self.lock, self.sessions() as s:
-            rows = list(s.scalars(select(MissionRow).where(MissionRow.status.in_(ACTIVE))))
+            rows = list(s.scalars(select(MissionRow).where(MissionRow.status.in_(sorted(ACTIVE)))))
             t = now()
             for row in rows:
                 row.status, row.reason, row.updated_at = "failed", "interrupted", t
@@ -169,29 +182,50 @@ class Store:
         plan: Sequence[str],
         actions: Sequence[dict[str, Any]],
     ) -> None:
+        """A plan version; its PDDL and actions go to blobs (the domain text is stored once)."""
         with self.lock, self.sessions() as s:
             s.add(
                 PlanRow(
                     mission_id=mission_id,
                     version=version,
                     domain=domain,
-                    domain_pddl=domain_pddl,
-                    problem_pddl=problem_pddl,
-                    plan=list(plan),
-                    actions=list(actions),
+                    domain_pddl="",
+                    problem_pddl="",
+                    plan=[],
+                    actions=[],
+                    domain_ref=blobs.put_text(s, domain_pddl),
+                    problem_ref=blobs.put_text(s, problem_pddl),
+                    steps_ref=blobs.put_json(s, {"plan": list(plan), "actions": list(actions)}),
                 )
             )
             s.commit()
 
-    def plans(self, mission_id: str) -> list[PlanRow]:
+    def plans(self, mission_id: str, texts: bool = True, last: bool = False) -> list[StoredPlan]:
+        """The mission's plan versions, oldest first (only the newest with ``last``); the PDDL
+        texts are read only with ``texts`` (they are the bulk)."""
         with self.sessions() as s:
-            return list(
-                s.scalars(
-                    select(PlanRow)
-                    .where(PlanRow.mission_id == mission_id)
-                    .order_by(PlanRow.version)
+            q = select(PlanRow).where(PlanRow.mission_id == mission_id)
+            if last:
+                q = q.order_by(PlanRow.version.desc()).limit(1)
+            rows = sorted(s.scalars(q), key=lambda r: r.version)
+
+            def text(ref: str | None, inline: str) -> str:
+                return blobs.get_text(s, ref) if ref and texts else inline
+
+            out = []
+            for r in rows:
+                steps = blobs.get_json(s, r.steps_ref) if r.steps_ref else {}
+                out.append(
+                    StoredPlan(
+                        version=r.version,
+                        domain=r.domain,
+                        domain_pddl=text(r.domain_ref, r.domain_pddl),
+                        problem_pddl=text(r.problem_ref, r.problem_pddl),
+                        plan=steps.get("plan", r.plan),
+                        actions=steps.get("actions", r.actions),
+                    )
                 )
-            )
+            return out
 
     def add_replan(self, mission_id: str, record: dict[str, Any]) -> None:
         with self.lock, self.sessions() as s:
@@ -202,32 +236,69 @@ class Store:
                     at=record["at"],
                     latency_ms=record["latency_ms"],
                     detail=record["detail"],
-                    old=record["old"],
-                    new=record["new"],
+                    old=[],
+                    new=[],
                     status=record["status"],
+                    plans_ref=blobs.put_json(s, {"old": record["old"], "new": record["new"]}),
                 )
             )
             s.commit()
 
     def replans(self, mission_id: str) -> list[ReplanRow]:
+        """The mission's replans, oldest first, their old and new plans filled in (the rows
+        are detached: what is filled in is never written back)."""
         with self.sessions() as s:
-            return list(
-                s.scalars(
-                    select(ReplanRow)
-                    .where(ReplanRow.mission_id == mission_id)
-                    .order_by(ReplanRow.id)
-                )
-            )
+            q = select(ReplanRow).where(ReplanRow.mission_id == mission_id)
+            rows = list(s.scalars(q.order_by(ReplanRow.id)))
+            s.expunge_all()  # detached first: filling them in is no change to flush
+            for row in rows:
+                if row.plans_ref:
+                    plans = blobs.get_json(s, row.plans_ref)
+                    row.old, row.new = plans["old"], plans["new"]
+            return rows
 
     def save_trajectory(self, mission_id: str, points: list[list[float]]) -> None:
         with self.lock, self.sessions() as s:
-            s.merge(TrajectoryRow(mission_id=mission_id, points=points))
+            ref = blobs.put_json(s, points)
+            s.merge(TrajectoryRow(mission_id=mission_id, points=[], points_ref=ref))
             s.commit()
 
     def trajectory(self, mission_id: str) -> list[list[float]] | None:
         with self.sessions() as s:
             row = s.get(TrajectoryRow, mission_id)
-            return None if row is None else list(row.points)
+            if row is None:
+                return None
+            points: list[list[float]] = (
+                blobs.get_json(s, row.points_ref) if row.points_ref else list(row.points)
+            )
+            return points
+
+    def prune(self, before: datetime) -> int:
+        """Delete missions that ended before ``before`` (with everything of theirs) and the
+        blobs nothing refers to any more; returns how many missions went."""
+        with self.lock, self.sessions() as s:
+            ids = list(
+                s.scalars(
+                    select(MissionRow.id).where(
+                        MissionRow.status.in_(sorted(TERMINAL)), MissionRow.updated_at < before
+                    )
+                )
+            )
+            for table in (TransitionRow, PlanRow, ReplanRow, TrajectoryRow):
+                s.execute(delete(table).where(table.mission_id.in_(ids)))
+            s.execute(delete(MissionRow).where(MissionRow.id.in_(ids)))
+            refs = (
+                PlanRow.domain_ref,
+                PlanRow.problem_ref,
+                PlanRow.steps_ref,
+                ReplanRow.plans_ref,
+                TrajectoryRow.points_ref,
+            )
+            # NULLs left out: NOT IN over a set with a NULL matches nothing
+            used = union(*(select(ref).where(ref.is_not(None)) for ref in refs))
+            s.execute(delete(BlobRow).where(BlobRow.sha256.not_in(select(used.subquery().c[0]))))
+            s.commit()
+            return len(ids)
 
     # -- library versions and jobs ---------------------------------------------------------------
     def record_library(self, text: str, code_version: str, entries: int, source: str) -> str:

@@ -8,7 +8,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.figure import Figure
 
-from app.cli_missions import event_marks
+from app.mission_plot import event_marks
 from app.plots import learning_figure, plot_trajectories, trajectory_figure
 from sim.obstacles import Circle
 from sim.world import Bounds, World

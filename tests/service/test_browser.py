@@ -189,3 +189,35 @@ def test_viewer_asks_for_the_api_key_on_401(tmp_path: Path, browser: Any) -> Non
     finally:
         proc.terminate()
         proc.wait(timeout=20)
+
+
+def test_docs_render_offline_with_every_operation_listed(server: str, browser: Any) -> None:  # noqa: F811
+    """Swagger UI and ReDoc with every request to another host aborted: all from the app."""
+    blocked: list[str] = []
+
+    def only_local(route: Any) -> None:
+        if route.request.url.startswith(server):
+            route.continue_()
+        else:
+            blocked.append(route.request.url)
+            route.abort()
+
+    operations = sum(
+        len([m for m in item if m in ("get", "post", "delete")])
+        for item in httpx.get(server + "/openapi.json").json()["paths"].values()
+    )
+    page = browser.new_page(viewport={"width": 1200, "height": 800})
+    page.route("**/*", only_local)
+    page.goto(server + "/docs")
+    page.wait_for_selector(".opblock", timeout=30_000)
+    assert page.locator(".opblock").count() == operations
+    text = page.inner_text("body")
+    assert "/missions/{mission_id}/goals" in text and "Problem" in text
+    assert not blocked, blocked  # Swagger UI asked for nothing from another host
+    page.goto(server + "/redoc")
+    page.wait_for_selector("text=Live updates", timeout=30_000)
+    assert "/missions/{mission_id}/pause" in page.inner_text("body")
+    page.close()
+    # ReDoc's "API docs by Redocly" badge is an image from its CDN: decorative, and the page
+    # rendered without it.
+    assert set(blocked) <= {"https://cdn.redoc.ly/redoc/logo-mini.svg"}, blocked

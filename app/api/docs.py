@@ -1,0 +1,54 @@
+"""What the OpenAPI description says beyond the routes: units, errors, the websocket protocol
+(its AsyncAPI document at ``/asyncapi.json``), and the tags."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from fastapi import APIRouter
+
+from app.api.frames import asyncapi
+
+router = APIRouter(tags=["websocket"])
+
+DESCRIPTION = """
+Plans and runs missions for a snake robot with four screw-drive units, in simulation.
+
+**Units.** Positions and lengths in metres, angles (headings ψ, joint angles φ) in radians,
+simulated time in *model seconds*, planning latency in wall milliseconds. Coordinates are in
+the world frame unless a field says *start frame*.
+
+**Errors** are `application/problem+json` (RFC 9457): `title` is the generic HTTP phrase,
+`detail` says what went wrong, and `field` (with `errors`, one per field) names the request
+field at fault when one is. Each operation lists the codes it can answer.
+
+**Writes** (`POST`) need `Authorization: Bearer <key>` when the server has an API key.
+
+**Live updates.** A running mission accepts new goals (`POST /missions/{id}/goals`), goal
+removals (`DELETE /missions/{id}/goals/{index}`, the index as posted), known obstacles
+(`POST /missions/{id}/obstacles`), `pause` and `resume`; each replans and shows in the
+transitions, the websocket and the event log (`GET /missions/{id}/events`, JSON lines).
+
+**Websocket** `WS /missions/{id}/ws`: a `snapshot` frame first, then `state` frames (latest
+wins, rate-limited), `event` frames (`kind`: status, replan, deform, collision, goal_reached,
+obstacle_sensed, dropout, update) and `plan` frames in order, and always an `end` frame last.
+Send `{"type": "ping"}` for a `pong`. Every frame's JSON Schema is in the AsyncAPI document at
+[`/asyncapi.json`](/asyncapi.json).
+"""
+
+TAGS = [
+    {"name": "missions", "description": "Post, follow, update and cancel missions."},
+    {"name": "primitives", "description": "The learned motor primitives the planner uses."},
+    {"name": "simulate", "description": "Open-loop rollouts of one parameter set."},
+    {"name": "jobs", "description": "Learning jobs: learn a primitive for a goal."},
+    {"name": "health", "description": "Liveness, readiness, Prometheus metrics."},
+    {"name": "websocket", "description": "The mission stream's protocol (AsyncAPI)."},
+    {"name": "viewer", "description": "The example missions the browser viewer offers."},
+]
+
+
+@router.get("/asyncapi.json")
+def get_asyncapi() -> dict[str, Any]:
+    """The websocket protocol of ``/missions/{id}/ws`` as AsyncAPI 3.0, with a JSON Schema
+    for every frame type."""
+    return asyncapi()

@@ -1,0 +1,112 @@
+"""Typed messages between a mission's worker process, the supervisor and the websocket hub.
+
+Worker -> supervisor: what happened (stored, then broadcast, in order). Supervisor -> worker:
+live updates of a running mission. All are frozen dataclasses: picklable across processes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+from app.missions.status import MissionStatus
+
+Frame = dict[str, Any]  # a websocket frame (see app.api.frames for the protocol's schemas)
+
+
+# -- worker -> supervisor -------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Transition:
+    """The mission entered a status (stored as a transition, broadcast as a status event)."""
+
+    status: MissionStatus
+    reason: str = ""
+    state: dict[str, Any] | None = None
+
+
+@dataclass(frozen=True)
+class SaveState:
+    """The mission's latest state, to store (not broadcast)."""
+
+    state: dict[str, Any]
+
+
+@dataclass(frozen=True)
+class Publish:
+    """A websocket frame to broadcast as it is (state and event frames)."""
+
+    frame: Frame
+
+
+@dataclass(frozen=True)
+class Replanned:
+    """A replan's record (trigger, latency, old and new plan), before its new plan."""
+
+    record: dict[str, Any]
+    version: int
+    t: float
+
+
+@dataclass(frozen=True)
+class PlanMade:
+    """A plan version with its PDDL and grounded actions."""
+
+    version: int
+    domain: str
+    domain_pddl: str
+    problem_pddl: str
+    plan: list[str]
+    actions: list[dict[str, Any]]
+
+
+@dataclass(frozen=True)
+class TrajectoryDone:
+    """The mission's (thinned) trajectory, sent once at the end."""
+
+    points: list[list[float]]
+
+
+@dataclass(frozen=True)
+class Ended:
+    """The terminal status; always the worker's last message."""
+
+    status: MissionStatus
+    reason: str
+    state: dict[str, Any] | None = None
+
+
+WorkerMessage = Transition | SaveState | Publish | Replanned | PlanMade | TrajectoryDone | Ended
+
+
+# -- supervisor -> worker (live updates) -------------------------------------------------------
+@dataclass(frozen=True)
+class AddGoal:
+    x: float
+    y: float
+    tolerance: float
+    kind: str = "add_goal"
+
+
+@dataclass(frozen=True)
+class RemoveGoal:
+    index: int
+    kind: str = "remove_goal"
+
+
+@dataclass(frozen=True)
+class AddObstacle:
+    obstacle: dict[str, Any]  # as in a mission's `obstacles` (sim.obstacles.obstacle_from_dict)
+    kind: str = "add_obstacle"
+
+
+@dataclass(frozen=True)
+class Pause:
+    kind: str = "pause"
+
+
+@dataclass(frozen=True)
+class Resume:
+    kind: str = "resume"
+
+
+Update = AddGoal | RemoveGoal | AddObstacle | Pause | Resume
