@@ -73,6 +73,23 @@ class DeformEvent(Frame):
     t: float = Field(description="model seconds")
     joints: list[float] = Field(description="the sensed joint angles, radians")
     shape: str = Field(description="the library shape they are classified as")
+    coverage: dict[str, Any] | None = Field(
+        default=None,
+        description=(
+            "how the library covers the sensed shape: kind (library | interpolated), shape, "
+            "sources and weights of a blend, error (rad)"
+        ),
+    )
+
+
+class ShapeChangeEvent(Frame):
+    """The plan or chain commanded another body shape (a shape change as an action)."""
+
+    type: Literal["event"]
+    kind: Literal["shape_change"]
+    t: float = Field(description="model seconds")
+    shape: str = Field(description="the library shape the body takes")
+    previous: str = Field(description="the shape it had")
 
 
 class CollisionEvent(Frame):
@@ -167,6 +184,7 @@ EVENTS = (
     StatusEvent,
     ReplanEvent,
     DeformEvent,
+    ShapeChangeEvent,
     CollisionEvent,
     GoalReachedEvent,
     ObstacleSensedEvent,
@@ -177,6 +195,7 @@ Event = Annotated[
     StatusEvent
     | ReplanEvent
     | DeformEvent
+    | ShapeChangeEvent
     | CollisionEvent
     | GoalReachedEvent
     | ObstacleSensedEvent
@@ -189,6 +208,7 @@ StreamFrame = (
     | StatusEvent
     | ReplanEvent
     | DeformEvent
+    | ShapeChangeEvent
     | CollisionEvent
     | GoalReachedEvent
     | ObstacleSensedEvent

@@ -130,7 +130,8 @@ def test_database_failure_is_503_and_readyz_false_without_leaking(tmp_path: Path
         assert r.status_code == 503 and r.headers["content-type"] == PROBLEM
         assert r.headers["Retry-After"]
         ready = c.get("/readyz")
-        assert ready.status_code == 503 and ready.json()["status"] == "unavailable"
+        assert ready.status_code == 503 and ready.headers["content-type"] == PROBLEM
+        assert "database unavailable" in ready.json()["detail"]
         for body in (r.text, ready.text):
             assert str(tmp_path) not in body and "sqlite" not in body.lower()
         with engine.begin() as conn:
