@@ -94,7 +94,7 @@ class Soak:
         except httpx.HTTPError as exc:
             self.statuses[f"error {type(exc).__name__}"] += 1
             return None
-        busy = r.status_code == 503 and r.json().get("title") == "Service busy"
+        busy = r.status_code == 503 and "missions are waiting" in r.json().get("detail", "")
         self.statuses["503 busy (queue full)" if busy else str(r.status_code)] += 1
         return r
 
