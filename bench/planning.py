@@ -26,9 +26,10 @@ from typing import Any
 import numpy as np
 
 from bench.fast_downward import FdRun, run_driver, run_unified_planning
+from domain.goal_order import LegGoal
 from domain.lattice import LatticeSettings, motion_table
 from domain.lattice_pddl import lattice_domain, lattice_problem
-from domain.lattice_planner import LatticePlanner, LegGoal
+from domain.lattice_planner import LatticePlanner
 from domain.worldmodel import WorldModel
 from primitives.library import load_bundled
 from sim.obstacles import Circle

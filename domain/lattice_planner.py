@@ -10,7 +10,6 @@ Each leg (current state to the head on the next goal) is one pyperplan search ov
 
 from __future__ import annotations
 
-import itertools
 import math
 import time
 from collections.abc import Sequence
@@ -19,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from domain.goal_order import LegGoal, order_goals
 from domain.lattice import Key, LatticeGrid, LatticeSettings, MotionTable
 from domain.lattice_cache import MotionCache
 from domain.lattice_distances import centroid_need, distance_map
@@ -35,19 +35,8 @@ from domain.pyperplan_adapter import (
 from sim.robot import Array
 from sim.world import Bounds
 
-MAX_GOALS_EXACT = 7  # unordered goals up to this many are ordered by trying every permutation
 PARTIAL_AFTER = 3000  # expansions after which a partial plan is taken, if it gets closer
 # (an expansion budget, not seconds: the same mission and seed plan the same on any machine)
-
-
-@dataclass(frozen=True)
-class LegGoal:
-    """A goal of the tour: its index in the mission, position and tolerance."""
-
-    index: int
-    x: float
-    y: float
-    tolerance: float
 
 
 @dataclass(frozen=True)
@@ -211,7 +200,7 @@ class LatticePlanner:
         for g in goals:
             if not math.isfinite(maps[g.index][si, sj]):
                 return LatticePlan("unreachable", self._enclosed(table, g, pose, static))
-        order = list(goals) if ordered else self._order(goals, maps, (si, sj))
+        order = list(goals) if ordered else order_goals(self.grid, goals, maps, (si, sj))
         plan = LatticePlan("solved", order=[g.index for g in order])
         here = start
         for leg, goal in enumerate(order):
@@ -351,40 +340,6 @@ class LatticePlanner:
                 target = (float(pose[0]), float(pose[1]), float(pose[2]))
                 out.append(LatticeAction("visit", name, None, target, 0.0, task.goal_index))
         return out, here
-
-    def _order(
-        self, goals: Sequence[LegGoal], maps: dict[int, Array], start: tuple[int, int]
-    ) -> list[LegGoal]:
-        """Unordered goals: the shortest tour by the goal-to-goal distance table."""
-
-        def d(a: tuple[int, int], g: LegGoal) -> float:
-            return float(maps[g.index][a])
-
-        cells = {g.index: self.grid.cell(g.x, g.y) for g in goals}
-
-        def tour_length(tour: Sequence[LegGoal]) -> float:
-            total, here = 0.0, start
-            for g in tour:
-                total += d(here, g)
-                here = cells[g.index]
-            return total
-
-        if len(goals) <= MAX_GOALS_EXACT:
-            return list(min(itertools.permutations(goals), key=lambda t: tour_length(list(t))))
-        tour, here, todo = [], start, list(goals)
-        while todo:  # nearest neighbour, then 2-opt
-            g = min(todo, key=lambda x: d(here, x))
-            tour.append(g)
-            todo.remove(g)
-            here = cells[g.index]
-        improved = True
-        while improved:
-            improved = False
-            for a, b in itertools.combinations(range(len(tour)), 2):
-                candidate = tour[:a] + tour[a : b + 1][::-1] + tour[b + 1 :]
-                if tour_length(candidate) < tour_length(tour) - 1e-9:
-                    tour, improved = candidate, True
-        return tour
 
     def _enclosed(
         self,

@@ -13,7 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
-from domain.lattice_planner import LegGoal
+from domain.goal_order import LegGoal
 from domain.pyperplan_adapter import CancelFlag
 from domain.triggers import ReplanRecord, Trigger
 from domain.worldmodel import RangeObservation, WorldModel

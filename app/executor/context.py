@@ -13,7 +13,7 @@ from typing import Any
 
 from app.executor.robot import Observation, Robot
 from app.missions.spec import MissionSpec
-from domain.lattice_planner import LegGoal
+from domain.goal_order import LegGoal
 from domain.pyperplan_adapter import CancelFlag
 from domain.strategy import PlanningStrategy, Situation
 from domain.triggers import ReplanRecord, Trigger

@@ -9,9 +9,10 @@ import threading
 import numpy as np
 import pytest
 
+from domain.goal_order import LegGoal
 from domain.lattice import LatticeSettings, compose, motion_table
 from domain.lattice_pddl import lattice_domain, lattice_problem
-from domain.lattice_planner import LatticePlanner, LegGoal
+from domain.lattice_planner import LatticePlanner
 from domain.lattice_task import LatticeTask
 from domain.pyperplan_adapter import parse_and_ground, search_task, validate_plan
 from domain.worldmodel import WorldModel

@@ -2,9 +2,10 @@
 
 import pytest
 
+from domain.goal_order import LegGoal
 from domain.lattice import LatticeSettings, motion_table
 from domain.lattice_pddl import lattice_domain, lattice_problem
-from domain.lattice_planner import LatticePlanner, LegGoal
+from domain.lattice_planner import LatticePlanner
 from domain.pyperplan_adapter import parse_and_ground, validate_plan
 from domain.worldmodel import WorldModel
 from primitives.library import load_bundled

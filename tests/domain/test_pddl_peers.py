@@ -24,9 +24,10 @@ from unified_planning.io import PDDLReader
 from unified_planning.model.metrics import MinimizeSequentialPlanLength
 from unified_planning.shortcuts import OneshotPlanner, PlanValidator, get_environment
 
+from domain.goal_order import LegGoal
 from domain.lattice import LatticeSettings, motion_table
 from domain.lattice_pddl import lattice_domain, lattice_problem
-from domain.lattice_planner import LatticePlan, LatticePlanner, LegGoal
+from domain.lattice_planner import LatticePlan, LatticePlanner
 from domain.pyperplan_adapter import parse_and_ground, search_task, validate_plan
 from domain.reactive import ReactiveState, plan_reactive, reactive_domain, reactive_problem
 from domain.worldmodel import WorldModel
