@@ -126,6 +126,7 @@ class MotionTable:
     open_clearance: float = field(init=False)  # centroid clearance that frees every motion
     body_points: list[Array] = field(init=False)  # per bin: the resting body's sample points
     body_needs: list[Array] = field(init=False)
+    heads: list[tuple[float, float]] = field(init=False)  # per bin: tracked point - centroid
 
     def __post_init__(self) -> None:
         from domain.lattice_task import primitive_name  # names only; no import cycle at load
@@ -137,8 +138,10 @@ class MotionTable:
         self.deltas = np.zeros((K, len(self.motions), 3), dtype=np.int64)
         self.points, self.needs, self.segments = [], [], []
         self.body_points, self.body_needs = [], []
+        self.heads = []
         for k in range(K):
             start = self.pose_of_centroid(np.zeros(2), k)
+            self.heads.append((float(start[0]), float(start[1])))
             fp0 = footprint(start, self.joints, self.geometry)
             p0, n0 = capsule_samples(fp0.starts, fp0.ends, fp0.radii)
             self.body_points.append(p0)

@@ -154,7 +154,8 @@ class LatticePlanner:
         if key not in self._reach:
             if len(self._reach) > 4:
                 self._reach.clear()
-            self._reach[key] = Reachability(self.grid, table, clearance, self.settings.margin)
+            at_centres = self.centre_clearance(clearance, version)
+            self._reach[key] = Reachability(self.grid, table, at_centres, self.settings.margin)
         return self._reach[key]
 
     # -- planning -----------------------------------------------------------------------------

@@ -15,7 +15,6 @@ start's component cannot be reached by any plan; the converse need not hold.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,18 +25,14 @@ from scipy.sparse.csgraph import connected_components
 from domain.lattice import Key, LatticeGrid, MotionTable
 from sim.robot import Array
 
-Clearance = Callable[[Array], Array]
-
 
 def free_configurations(
-    grid: LatticeGrid, table: MotionTable, clearance: Clearance, margin: float
+    grid: LatticeGrid, table: MotionTable, at_centres: Array, margin: float
 ) -> NDArray[np.bool_]:
-    """``[K, nx, ny]``: where the resting body may lie (relaxed by half a cell diagonal)."""
+    """``[K, nx, ny]``: where the resting body may lie (relaxed by half a cell diagonal), from
+    the clearance at ``grid.centres``."""
     nx, ny, r = grid.nx, grid.ny, grid.settings.resolution
-    xs = grid.bounds.xmin + (np.arange(nx) + 0.5) * r
-    ys = grid.bounds.ymin + (np.arange(ny) + 0.5) * r
-    cx, cy = np.meshgrid(xs, ys, indexing="ij")
-    clear = clearance(np.stack([cx.ravel(), cy.ravel()], -1)).reshape(nx, ny)
+    clear = at_centres.reshape(nx, ny)
     # Padded with -inf: a body point off the grid is outside the arena.
     pad = max(1, math.ceil(table.geometry.body_length / r) + 2)
     padded = np.full((nx + 2 * pad, ny + 2 * pad), -np.inf)
@@ -64,10 +59,10 @@ class Reachability:
     """The components of one lattice's free configurations, asked for many starts and goals."""
 
     def __init__(
-        self, grid: LatticeGrid, table: MotionTable, clearance: Clearance, margin: float
+        self, grid: LatticeGrid, table: MotionTable, at_centres: Array, margin: float
     ) -> None:
         self.grid, self.table = grid, table
-        self.free = free_configurations(grid, table, clearance, margin)
+        self.free = free_configurations(grid, table, at_centres, margin)
         structure = np.zeros((3, 3, 3), dtype=bool)
         structure[1] = True  # the 8 neighbouring cells at one orientation ...
         structure[0, 1, 1] = structure[2, 1, 1] = True  # ... and one orientation step in place
@@ -90,13 +85,10 @@ class Reachability:
         if mine.size == 0:
             return True
         grid = self.grid
-        r = grid.settings.resolution
-        xs = grid.bounds.xmin + (np.arange(grid.nx) + 0.5) * r
-        ys = grid.bounds.ymin + (np.arange(grid.ny) + 0.5) * r
-        slack = r * math.sqrt(0.5)
-        for k in range(grid.settings.orientations):
-            hx, hy = self.table.pose_of_centroid(np.zeros(2), k)[:2]
-            near = np.hypot(xs[:, None] + hx - goal[0], ys[None, :] + hy - goal[1])
+        centres = grid.centres.reshape(grid.nx, grid.ny, 2)
+        slack = grid.settings.resolution * math.sqrt(0.5)
+        for k, (hx, hy) in enumerate(self.table.heads):
+            near = np.hypot(centres[..., 0] + hx - goal[0], centres[..., 1] + hy - goal[1])
             mask = (near <= reach + slack) & self.free[k]
             if np.any(np.isin(self.component[self.labels[k][mask]], mine)):
                 return True

@@ -91,10 +91,6 @@ class LatticeTask(Task):  # type: ignore[misc]
         self._size = grid.size
         self.cache: MotionCache | None = None  # free motions kept between replans (not start's)
         self.at_centres: Array | None = None  # clearance at grid.centres, if the planner has it
-        self._heads = [
-            tuple(float(v) for v in table.pose_of_centroid(np.zeros(2), k)[:2])
-            for k in range(grid.settings.orientations)
-        ]
         start_fact = self.fact(self.start_number)
         super().__init__(
             "lattice",
@@ -118,13 +114,9 @@ class LatticeTask(Task):  # type: ignore[misc]
         return None
 
     # -- geometry ---------------------------------------------------------------------------
-    def head(self, key: Key) -> Array:
-        i, j, k = key
-        return self.table.pose_of_centroid(self.grid.centre(i, j), k)[:2]
-
     def is_near(self, key: Key) -> bool:
         i, j, k = key
-        dx, dy = self._heads[k]  # the tracked point relative to the centroid, per orientation
+        dx, dy = self.table.heads[k]
         r, b = self.grid.settings.resolution, self.grid.bounds
         x, y = b.xmin + (i + 0.5) * r + dx, b.ymin + (j + 0.5) * r + dy
         return math.hypot(x - self.goal[0], y - self.goal[1]) <= self.reach
