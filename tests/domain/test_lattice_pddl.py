@@ -11,19 +11,10 @@ from domain.worldmodel import WorldModel
 from primitives.library import load_bundled
 from sim.obstacles import Circle
 from sim.world import Bounds
+from tests.domain.test_lattice import operator_table
 
 COARSE = LatticeSettings(resolution=0.1, orientations=32)
 TABLE = motion_table(load_bundled(), "straight", (0.0, 0.0, 0.0), COARSE)
-
-
-def operator_table(operators) -> set:
-    def names(facts):
-        return frozenset(str(f) for f in facts)
-
-    return {
-        (o.name, names(o.preconditions), names(o.add_effects), names(o.del_effects))
-        for o in operators
-    }
 
 
 def test_a_tours_export_grounds_to_every_legs_operators_and_all_its_goals() -> None:
