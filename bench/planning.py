@@ -30,6 +30,7 @@ from domain.goal_order import LegGoal
 from domain.lattice import LatticeSettings, motion_table
 from domain.lattice_pddl import lattice_domain, lattice_problem
 from domain.lattice_planner import LatticePlanner
+from domain.occupancy import WorldModelSettings
 from domain.worldmodel import WorldModel
 from primitives.library import load_bundled
 from sim.obstacles import Circle
@@ -75,6 +76,7 @@ def run(side: float, library: object, seed: int = 0) -> dict[str, Any]:
         "facts": len(list(problem.init)) if problem is not None else 0,
     }
     replans: list[float] = []
+    repaired = 0
     for _ in range(REPLANS):
         moves = [a for a in plan.actions if a.name == "move"]
         if len(moves) < 8:
@@ -82,16 +84,99 @@ def run(side: float, library: object, seed: int = 0) -> dict[str, Any]:
         pose = moves[2].target  # the robot advanced; something is sensed a few steps ahead
         ahead = moves[7].target
         world.add_contact((ahead[0], ahead[1]))
+        remaining = plan.actions[plan.actions.index(moves[2]) + 1 :]
         t0 = time.perf_counter()
-        plan = planner.plan(table, world.clearance_at, world.version, pose, goal, True)
+        plan = planner.plan(
+            table, world.clearance_at, world.version, pose, goal, True, previous=remaining
+        )
         replans.append((time.perf_counter() - t0) * 1e3)
+        repaired += plan.repaired
     return {
         "first": first,
         "p50": pct(replans, 50),
         "p95": pct(replans, 95),
         "n": len(replans),
+        "repaired": repaired,
         "export": export,
     }
+
+
+def scaling(side: float, library: object, seed: int = 0, trials: int = 5) -> dict[str, Any]:
+    """Replan time after one cell is blocked on the path 1 m ahead of the robot: the repair
+    (what a mission does) and a full plan from scratch, medians over ``trials`` positions."""
+    rng = np.random.default_rng(seed)
+    bounds = Bounds(-side / 2, side / 2, -side / 2, side / 2)
+    world = WorldModel(bounds, clutter(side, rng), WorldModelSettings(contact_radius=0.0))
+    settings = LatticeSettings()
+    table = motion_table(library, "straight", (0.0, 0.0, 0.0), settings)  # type: ignore[arg-type]
+    assert table is not None
+    planner = LatticePlanner(bounds, settings, time_limit=60.0)
+    pose = (-side / 2 + 1.3, -side / 2 + 0.4, np.pi)
+    goal = [LegGoal(0, side / 2 - 0.6, side / 2 - 0.6, 0.1)]
+    plan = planner.plan(table, world.clearance_at, world.version, pose, goal, True)
+    repair, full, repaired = [], [], 0
+    for trial in range(trials):
+        moves = [a for a in plan.actions if a.name == "move"]
+        here = moves[2 + 2 * trial].target
+        ahead = next(
+            (
+                m.target
+                for m in moves
+                if np.hypot(m.target[0] - here[0], m.target[1] - here[1]) >= 1.0
+            ),
+            None,
+        )
+        if ahead is None:
+            break
+        world.add_contact((ahead[0], ahead[1]))  # a contact radius of 0: one cell
+        remaining = plan.actions[plan.actions.index(moves[2 + 2 * trial]) + 1 :]
+        t0 = time.perf_counter()
+        fixed = planner.plan(
+            table, world.clearance_at, world.version, here, goal, True, previous=remaining
+        )
+        repair.append((time.perf_counter() - t0) * 1e3)
+        repaired += fixed.repaired
+        fresh = LatticePlanner(bounds, settings, time_limit=60.0)  # nothing kept: a first plan
+        t0 = time.perf_counter()
+        fresh.plan(table, world.clearance_at, world.version, here, goal, True)
+        full.append((time.perf_counter() - t0) * 1e3)
+    return {
+        "states": planner.grid.size,
+        "repair": pct(repair, 50),
+        "full": pct(full, 50),
+        "repaired": repaired,
+        "n": len(repair),
+    }
+
+
+def slope(xs: list[float], ys: list[float]) -> float:
+    """The log-log slope of ``ys`` against ``xs`` (least squares)."""
+    return float(np.polyfit(np.log(xs), np.log(ys), 1)[0])
+
+
+def scaling_table(args: argparse.Namespace) -> None:
+    library = load_bundled()
+    print(
+        "\nreplan after one cell is blocked on the path 1 m ahead (median of the trials): "
+        "repaired plan vs a plan from scratch (ms)"
+    )
+    print(f"{'arena':>7}{'states':>12}{'repair':>9}{'repaired':>10}{'scratch':>9}")
+    rows = []
+    for side in args.scaling:
+        r = scaling(side, library, args.seed)
+        rows.append(r)
+        print(
+            f"{side:>5g} m{r['states']:>12,}{r['repair']:>9.1f}{r['repaired']:>6}/{r['n']:<3}"
+            f"{r['full']:>9.1f}",
+            flush=True,
+        )
+    if len(rows) > 1:
+        states = [float(r["states"]) for r in rows]
+        print(
+            f"log-log slope against the number of states: repair "
+            f"{slope(states, [r['repair'] for r in rows]):.2f}, from scratch "
+            f"{slope(states, [r['full'] for r in rows]):.2f} (target < 0.5)"
+        )
 
 
 def ms(value: float | None) -> str:
@@ -121,12 +206,21 @@ def main(argv: list[str] | None = None) -> None:
         "--up-limit", type=float, default=60.0, help="s per unified-planning call (0: skip)"
     )
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--scaling",
+        type=float,
+        nargs="*",
+        default=[5.0, 10.0, 20.0, 40.0],
+        help="arena sides (m) for the one-blocked-cell replan scaling (none: skip)",
+    )
     args = parser.parse_args(argv)
     load = None
     if args.load:  # one spinning process: the other core is taken while we measure
         load = subprocess.Popen([sys.executable, "-c", "while True: pass"])
     try:
         table(args)
+        if args.scaling:
+            scaling_table(args)
     finally:
         if load is not None:
             load.kill()

@@ -44,12 +44,39 @@ class MotionCache:
             self.free.clear()
             return
         changed = np.abs(capped - old) > 1e-9
-        if not np.any(changed):
+        if np.any(changed):
+            self._forget(changed, (0, 0))
+
+    def refresh_window(self, at_cells: Array, window: tuple[slice, slice]) -> None:
+        """Refresh from the clearance in ``window`` alone (``at_cells``: at its cell centres),
+        for a search among states at least a motion's reach inside it: every change that
+        could touch their motions lies in it. Changes outside are left for the next full
+        ``refresh`` (the cache no longer claims a world version, so it compares everything)."""
+        if self._capped is None:
+            return
+        wi, wj = window
+        capped = np.minimum(at_cells.reshape(wi.stop - wi.start, wj.stop - wj.start), self.cap)
+        changed = np.abs(capped - self._capped[wi, wj]) > 1e-9
+        self._capped[wi, wj] = capped
+        self.version = None
+        if np.any(changed):
+            self._forget(changed, (wi.start, wj.start))
+
+    def _forget(self, changed: NDArray[np.bool_], origin: tuple[int, int]) -> None:
+        """Drop the states within a motion's reach of a changed cell (``changed``: a window of
+        cells whose first cell is ``origin``)."""
+        if not self.free:
             return
         r = self.grid.settings.resolution
-        near = ndimage.distance_transform_edt(~changed) * r <= self.reach + 2 * r * math.sqrt(2)
-        ny, plane = self.grid.ny, self.grid.nx * self.grid.ny
-        for number in list(self.free):
-            i, j = divmod(number % plane, ny)
-            if near[i, j]:
-                del self.free[number]
+        limit = self.reach + 2 * r * math.sqrt(2)
+        pad = math.ceil(limit / r)
+        grown = np.pad(changed, pad)  # states just outside the window may reach into it
+        near = ndimage.distance_transform_edt(~grown) * r <= limit
+        numbers = np.fromiter(self.free, dtype=np.int64, count=len(self.free))
+        i, j = np.divmod(numbers % (self.grid.nx * self.grid.ny), self.grid.ny)
+        li, lj = i - origin[0] + pad, j - origin[1] + pad
+        inside = (li >= 0) & (li < near.shape[0]) & (lj >= 0) & (lj < near.shape[1])
+        hit = np.zeros(numbers.size, dtype=bool)
+        hit[inside] = near[li[inside], lj[inside]]
+        for number in numbers[hit].tolist():
+            del self.free[number]

@@ -7,6 +7,7 @@ Dijkstra (scipy's csgraph) over the cells the body centroid can occupy, 8-connec
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from functools import lru_cache
 
 import numpy as np
@@ -50,15 +51,49 @@ def distance_map(
     ok |= np.hypot(centres[:, 0] - goal[0], centres[:, 1] - goal[1]) <= free
     if start is not None:  # the robot is there: it may be touching what it just bumped into
         ok |= np.hypot(centres[:, 0] - start[0], centres[:, 1] - start[1]) <= START_FREE
+    gi, gj = grid.cell(*goal)
+    return geodesic(ok.reshape(nx, ny), [(gi, gj)], r)
+
+
+def window_distance_map(
+    grid: LatticeGrid,
+    window: tuple[slice, slice],
+    at_window: Array,
+    targets: Sequence[tuple[int, int]],
+    need: float,
+    start: tuple[int, int] | None = None,
+) -> Array:
+    """``distance_map`` within a window of cells (``at_window``: the clearance at its cell
+    centres, ``[wi * wj]`` in row order) to the nearest of the cells ``targets`` (grid
+    indices): what a local repair needs, at a cost that depends on the window, not on the
+    arena."""
+    wi, wj = window
+    shape = (wi.stop - wi.start, wj.stop - wj.start)
+    r = grid.settings.resolution
+    ok = (at_window >= need - r * math.sqrt(0.5)).reshape(shape)
+    local = [(i - wi.start, j - wj.start) for i, j in targets]
+    for i, j in local:
+        ok[i, j] = True
+    if start is not None:
+        i, j = np.indices(shape)
+        ok |= np.hypot(i + wi.start - start[0], j + wj.start - start[1]) * r <= START_FREE
+    return geodesic(ok, local, r)
+
+
+def geodesic(ok: NDArray[np.bool_], sources: Sequence[tuple[int, int]], r: float) -> Array:
+    """Dijkstra distances (m) from the nearest of the cells ``sources`` over the 8-connected cells where ``ok``
+    (``[nx, ny]``; ``inf`` where cut off)."""
+    nx, ny = ok.shape
+    flat = ok.ravel()
     graph, rows = _topology(nx, ny, r)
     # The 8-connected graph is built once per grid; edges into or out of blocked cells get an
     # infinite weight (Dijkstra never improves a distance over them).
-    blocked = ~(ok[rows] & ok[graph.indices])
+    blocked = ~(flat[rows] & flat[graph.indices])
     weighted = csr_matrix(
         (np.where(blocked, np.inf, graph.data), graph.indices, graph.indptr), shape=graph.shape
     )
-    gi, gj = grid.cell(*goal)
-    dist = dijkstra(weighted, directed=True, indices=gi * ny + gj)
+    index = [i * ny + j for i, j in sources]
+    dist = dijkstra(weighted, directed=True, indices=index, min_only=True)
     return np.asarray(dist, dtype=float).reshape(nx, ny)
 
 

@@ -12,7 +12,10 @@ Type and predicate names are distinct (unified-planning rejects a name used as b
 from __future__ import annotations
 
 from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import cast
 
+from domain.lattice import Key
 from domain.lattice_task import LatticeTask, primitive_name, state_name
 from domain.pddl import Action, Domain, Problem
 
@@ -58,52 +61,79 @@ def lattice_domain() -> Domain:
     )
 
 
+@dataclass
+class LatticeGraph:
+    """The part of the lattice a problem lists: a start, move edges, goal points and where the
+    head is on each."""
+
+    start: Key
+    start_number: int
+    edges: set[tuple[int, int, str]] = field(default_factory=set)  # (state, next, primitive)
+    near: set[tuple[int, int]] = field(default_factory=set)  # (state, goal index)
+    goals: list[tuple[int, float, float, float]] = field(default_factory=list)  # i, x, y, reach
+    notes: list[str] = field(default_factory=list)
+
+    @classmethod
+    def of_legs(cls, tasks: Sequence[LatticeTask]) -> LatticeGraph:
+        """What the searches of a tour's legs generated: every state they expanded with all
+        its successors."""
+        if not tasks:
+            raise ValueError("lattice_problem needs at least one leg")
+        first = tasks[0]
+        graph = cls(first.start_key, first.start_number)
+        for task in tasks:
+            for a, out in task.edges.items():
+                graph.edges.update((a, b, p) for b, p in out)
+            graph.near.update((s, task.goal_index) for s in task.near)
+            graph.goals.append((task.goal_index, task.goal[0], task.goal[1], task.reach))
+            graph.notes.append(
+                f"goal g{task.goal_index} at ({task.goal[0]:g}, {task.goal[1]:g}) within "
+                f"{task.reach:g} m; {len(task.edges)} states expanded for it"
+            )
+        if len(tasks) > 1:
+            graph.notes.append("goals in the order planned; the PDDL goal does not state an order")
+        return graph
+
+
 def lattice_problem(
-    legs: LatticeTask | Sequence[LatticeTask], shape: str, reshaped_from: str | None = None
+    legs: LatticeTask | Sequence[LatticeTask] | LatticeGraph,
+    shape: str,
+    reshaped_from: str | None = None,
 ) -> Problem:
-    """The generated part of the lattice as a PDDL problem: one leg's task, or every leg of a
-    tour (their lattices merged, one goal point per leg, all to be visited). ``shape`` is the
-    lattice's body shape; ``reshaped_from`` the shape the body has before the plan's first
-    action changes it (the problem then starts in that body and asks for ``shape``).
+    """The generated part of the lattice as a PDDL problem: one leg's task, every leg of a
+    tour (their lattices merged, one goal point per leg, all to be visited), or a graph put
+    together otherwise (a repaired plan's). ``shape`` is the lattice's body shape;
+    ``reshaped_from`` the shape the body has before the plan's first action changes it (the
+    problem then starts in that body and asks for ``shape``).
 
     A tour's goals are a conjunction, so the problem does not state an order: a peer planner
     may visit ordered goals in another order (the plan is still valid on the lattice).
     """
-    tasks = [legs] if isinstance(legs, LatticeTask) else list(legs)
-    if not tasks:
-        raise ValueError("lattice_problem needs at least one leg")
-    first = tasks[0]
-    states: set[int] = {first.start_number}
-    edges: set[tuple[int, int, str]] = set()
-    near: set[tuple[int, int]] = set()
-    for task in tasks:
-        states.add(task.start_number)
-        for a, out in task.edges.items():
-            states.add(a)
-            edges.update((a, b, p) for b, p in out)
-        near.update((s, task.goal_index) for s in task.near)
+    # cast: LatticeTask derives from an untyped class, so isinstance cannot narrow it away
+    graph = (
+        cast(LatticeGraph, legs)
+        if isinstance(legs, LatticeGraph)
+        else LatticeGraph.of_legs(_tasks(legs))
+    )
+    edges = graph.edges
+    states: set[int] = {graph.start_number}
+    states.update(a for a, _, _ in edges)
     states.update(b for _, b, _ in edges)
-    states.update(s for s, _ in near)
+    states.update(s for s, _ in graph.near)
     body = primitive_name(shape)
     before = primitive_name(reshaped_from) if reshaped_from else body
-    init = [f"(at {state_name(first.start_number)})", f"(body {before})"]
+    init = [f"(at {state_name(graph.start_number)})", f"(body {before})"]
     if before != body:
         init.append(f"(reshapes {before} {body})")
     init += [f"(succ {state_name(a)} {state_name(b)} {p})" for a, b, p in sorted(edges)]
-    init += [f"(near {state_name(s)} g{g})" for s, g in sorted(near)]
-    goals = [f"g{t.goal_index}" for t in tasks]
-    i, j, k = first.start_key
+    init += [f"(near {state_name(s)} g{g})" for s, g in sorted(graph.near)]
+    goals = [f"g{index}" for index, *_ in graph.goals]
+    i, j, k = graph.start
     lines = [
-        f"shape {shape}; start state {state_name(first.start_number)} = cell ({i}, {j}), "
-        f"orientation {k}"
+        f"shape {shape}; start state {state_name(graph.start_number)} = cell ({i}, {j}), "
+        f"orientation {k}",
+        *graph.notes,
     ]
-    lines += [
-        f"goal g{t.goal_index} at ({t.goal[0]:g}, {t.goal[1]:g}) within {t.reach:g} m; "
-        f"{len(t.edges)} states expanded for it"
-        for t in tasks
-    ]
-    if len(tasks) > 1:
-        lines.append("goals in the order planned; the PDDL goal does not state an order")
     objects = {
         "lstate": [state_name(s) for s in sorted(states)],
         "primitive": sorted({p for _, _, p in edges}) or ["none"],
@@ -112,3 +142,7 @@ def lattice_problem(
     }
     goal = [f"(visited {g})" for g in goals] + ([f"(body {body})"] if before != body else [])
     return Problem("lattice", "screwsnake-lattice", objects, init, goal, "\n".join(lines))
+
+
+def _tasks(legs: LatticeTask | Sequence[LatticeTask]) -> list[LatticeTask]:
+    return [legs] if isinstance(legs, LatticeTask) else list(legs)

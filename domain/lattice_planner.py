@@ -22,8 +22,11 @@ from domain.goal_order import LegGoal, order_goals
 from domain.lattice import Key, LatticeGrid, LatticeSettings, MotionTable
 from domain.lattice_cache import MotionCache
 from domain.lattice_distances import centroid_need, distance_map
+from domain.lattice_pddl import LatticeGraph, lattice_problem
 from domain.lattice_reach import Reachability
+from domain.lattice_repair import PlanRepairer, leg_reach
 from domain.lattice_task import Clearance, LatticeHeuristic, LatticeTask, primitive_name
+from domain.pddl import Problem
 from domain.pyperplan_adapter import (
     HEURISTICS,
     SEARCHES,
@@ -64,6 +67,14 @@ class LatticePlan:
     task: LatticeTask | None = None  # the first leg's task (for the PDDL export)
     legs: list[LatticeTask] = field(default_factory=list)  # every leg's task (the PDDL export)
     partial: bool = False  # the search ran out of time: the plan leads towards the goal only
+    graph: LatticeGraph | None = None  # the lattice a repaired plan's problem lists
+    repaired: bool = False  # the last plan made free again around a local change
+
+    def problem(self, shape: str, reshaped_from: str | None = None) -> Problem | None:
+        """The PDDL problem this plan solves (the lattice its searches generated), if any."""
+        if self.graph is not None:
+            return lattice_problem(self.graph, shape, reshaped_from)
+        return lattice_problem(self.legs, shape, reshaped_from) if self.legs else None
 
     @property
     def solved(self) -> bool:
@@ -111,6 +122,14 @@ class LatticePlanner:
         self._reach: dict[tuple[Any, ...], Reachability] = {}
         self._motions: dict[tuple[Any, ...], MotionCache] = {}
         self._centres: tuple[Any, Array] | None = None
+        self.repairer = PlanRepairer(
+            self.grid,
+            settings.margin,
+            settings.start_margin,
+            SEARCHES[search],
+            self.actions_of,
+            self.motion_cache,
+        )
 
     # -- lattice states ---------------------------------------------------------------------
     def key_of(self, table: MotionTable, pose: Sequence[float]) -> Key:
@@ -169,14 +188,28 @@ class LatticePlanner:
         ordered: bool,
         cancel: CancelFlag | None = None,
         static: tuple[Clearance, Any] | None = None,
+        previous: Sequence[LatticeAction] = (),
     ) -> LatticePlan:
         """A plan from ``pose`` through ``goals`` (in the given order, or the best found).
 
         ``static`` is the clearance of the known obstacles alone: when a goal is cut off, it
-        tells whether the known map already encloses it or sensing did.
+        tells whether the known map already encloses it or sensing did. ``previous`` is what
+        remains of the last plan: if a local repair makes it free again (domain/lattice_repair.py),
+        that is the plan; otherwise one is searched from scratch.
         """
         started = time.monotonic()
         deadline = started + self.time_limit
+        if previous and self.heuristic == "lattice" and self.search != "bfs":
+            start = self.key_of(table, pose)
+            fixed = self.repairer.repair(
+                table, clearance, start, goals, previous, ordered, deadline, cancel
+            )
+            if fixed is not None:
+                order = [a.goal for a in fixed.actions if a.name == "visit"]
+                done = LatticePlan("solved", "repaired", fixed.actions, order, fixed.expansions)
+                done.graph, done.repaired = fixed.graph, True
+                done.search_ms = (time.monotonic() - started) * 1e3
+                return done
         self.motion_cache(table).refresh(self.centre_clearance(clearance, version), version)
         start = self.key_of(table, pose)
         si, sj, _ = start
@@ -234,7 +267,7 @@ class LatticePlanner:
                 plan.reason = self._why(result, table, goal)
                 plan.actions = []
                 break
-            actions, here = self._actions(task, table, result.plan)
+            actions, here = self.actions_of(task, table, result.plan)
             plan.actions += actions
             if result.reason == "partial":  # the rest is planned again from there
                 plan.partial = True
@@ -259,7 +292,7 @@ class LatticePlanner:
             clearance,
             start,
             (goal.x, goal.y),
-            max(0.03, 0.6 * goal.tolerance),
+            leg_reach(goal),
             self.settings.margin,
             self.settings.start_margin if first else self.settings.margin,
             goal.index,
@@ -317,9 +350,10 @@ class LatticePlanner:
             return PlanResult("unsolvable", [], ms, task.expansions, "no plan")
         return PlanResult("solved", [op.name for op in plan], ms, task.expansions)
 
-    def _actions(
+    def actions_of(
         self, task: LatticeTask, table: MotionTable, names: list[str]
     ) -> tuple[list[LatticeAction], Key]:
+        """A searched plan's operator names as plan actions, and the state it ends in."""
         by_name = {primitive_name(m.primitive): i for i, m in enumerate(table.motions)}
         here = task.start_key
         out = []

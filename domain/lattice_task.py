@@ -51,6 +51,16 @@ def _operator(
     return op
 
 
+def start_allowance(
+    grid: LatticeGrid, table: MotionTable, clearance: Clearance, start: Key, start_margin: float
+) -> float:
+    """The margin motions out of ``start`` keep. The robot may start touching something (a
+    contact stopped it): they may then keep as close as the start already is, never deeper."""
+    i, j, k = start
+    depth = float(np.min(clearance(grid.centre(i, j) + table.body_points[k]) - table.body_needs[k]))
+    return min(start_margin, depth - 0.005)
+
+
 class LatticeTask(Task):  # type: ignore[misc]
     """One leg: from ``start`` to the head on ``goal`` (x, y within ``reach``)."""
 
@@ -70,13 +80,7 @@ class LatticeTask(Task):  # type: ignore[misc]
         self.goal, self.reach, self.margin = goal, reach, margin
         self.start_key = start
         self.start_number = grid.encode(start)
-        # The robot may start touching something (a contact stopped it): motions out of the
-        # start may then keep as close as the start already is, but never go deeper.
-        i, j, k = start
-        depth = float(
-            np.min(clearance(grid.centre(i, j) + table.body_points[k]) - table.body_needs[k])
-        )
-        self.start_margin = min(start_margin, depth - 0.005)
+        self.start_margin = start_allowance(grid, table, clearance, start, start_margin)
         self.goal_fact = Fact(f"(visited g{goal_index})", grid.size + goal_index)
         self.goal_index = goal_index
         self.deadline = math.inf

@@ -12,13 +12,14 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from domain.lattice import LatticeSettings, MotionTable, compose, motion_table, relative
-from domain.lattice_pddl import lattice_domain, lattice_problem
+from domain.lattice_pddl import lattice_domain
 from domain.lattice_planner import LatticeAction, LatticePlan, LatticePlanner
 from domain.lattice_task import LatticeTask, primitive_name
 from domain.pyperplan_adapter import CancelFlag
@@ -36,8 +37,10 @@ ARRIVE_TRIES = 4  # final approaches to one goal before giving up on the plan
 LOOKAHEAD = 16  # plan steps re-checked against the world model when it changes
 SENSED_INFLATION = 0.05  # metres plans keep beyond what the head saw of a hidden obstacle
 CONTACT_INFLATION = 0.1  # ... and beyond where a bumper touched one (it felt a single point)
+CONTACT_BARE = 0.02  # ... when no plan exists otherwise: a new touch adds a new contact point
 BACK_OFF = {"front": 0, "rear": 180, "left": 90, "right": 270}  # body angle away from a side
 BACK_OFF_STEPS = 2  # short library translations away from a contact before replanning
+MAX_REPAIRS = 4  # local plan repairs in a row before the whole way is planned again
 MAX_RECOVERIES = 3  # recovery spins after a planning timeout before the mission fails
 SPIN_STEPS = 1  # turns of a recovery spin (each checked free before it runs)
 
@@ -74,6 +77,7 @@ class NavigationStrategy:
         self.clearance: Any = None  # what plans are checked against (sensed cells inflated)
         self.backoff: list[Primitive] = []
         self.recoveries = 0
+        self.repairs = 0  # plans repaired in a row since the last full plan
 
     # -- the lattice of the current body --------------------------------------------------------
     def table_for(self, shape: str, joints: tuple[float, float, float]) -> MotionTable | None:
@@ -92,6 +96,13 @@ class NavigationStrategy:
         t0 = time.perf_counter()
         old = self.plan.pddl_plan[self.index :] if self.plan else []
         table = self.table_for(s.shape, s.joints)
+        # What remains of a full plan on this lattice may only need a local repair.
+        # Repairs keep the old plan's far part, planned on older knowledge: after a few in a
+        # row, the whole way is planned again.
+        remaining: list[LatticeAction] = []
+        usable = self.plan and self.plan.solved and not self.plan.partial and table is self.table
+        if usable and self.plan and self.repairs < MAX_REPAIRS:
+            remaining = self.plan.actions[self.index :]
         self.running, self.index, self.arrive_tries = None, 0, 0
         if table is None:
             self.plan = LatticePlan(
@@ -103,9 +114,10 @@ class NavigationStrategy:
             pose = np.asarray(s.pose, dtype=float)
             for entry in self.backoff:  # plan from where backing off will leave the robot
                 pose = compose(pose, np.asarray(entry.end_pose))
-            self.plan = self._plan(table, s, pose, cancel)
+            self.plan = self._plan(table, s, pose, cancel, remaining)
             if self.plan.status in ("unreachable", "unsolvable", "timeout") and not s.deformed:
                 table = self._reshaped(table, s, pose, cancel) or table
+            self.repairs = self.repairs + 1 if self.plan.repaired else 0
             if self.plan.solved and not self.plan.partial:
                 self.recoveries = 0
             elif self.plan.status == "timeout" and self.recoveries < MAX_RECOVERIES:
@@ -124,7 +136,8 @@ class NavigationStrategy:
         first = plan.actions[0] if plan.actions else None
         reshaped = s.shape if first is not None and first.name == "reshape" else None
         lattice_shape = table.shape if table is not None else s.shape
-        problem = lattice_problem(plan.legs, lattice_shape, reshaped).text() if plan.legs else ""
+        exported = plan.problem(lattice_shape, reshaped)
+        problem = exported.text() if exported is not None else ""
         self._checked = (s.world.version, 0)
         return Replanned(
             plan.solved, plan.reason, record, lattice_domain().text(), problem, plan.pddl_plan
@@ -136,23 +149,29 @@ class NavigationStrategy:
         s: Situation,
         pose: Any,
         cancel: CancelFlag | None,
+        remaining: Sequence[LatticeAction] = (),
     ) -> LatticePlan:
-        """A lattice plan from ``pose``. Suspected surfaces (where a touched one probably goes
-        on) are kept clear of while a way round them exists; only if none does are they
-        planned through."""
+        """A lattice plan from ``pose`` (a repair of ``remaining``, the rest of the last plan,
+        where one will do). Suspected surfaces (where a touched one probably goes on) are kept
+        clear of while a way round them exists; only if none does are they planned through;
+        contacts are kept far from while that finds a plan, then only just."""
         world = s.world
         plan = LatticePlan("unsolvable")
-        for suspected in (True, False) if np.any(world.suspected()) else (False,):
-            self.clearance = self._clearance(world, suspected)
+        tiers = [(False, CONTACT_INFLATION), (False, CONTACT_BARE)]
+        if np.any(world.suspected()):
+            tiers.insert(0, (True, CONTACT_INFLATION))
+        for suspected, grow in tiers:
+            self.clearance = self._clearance(world, suspected, grow)
             plan = self.planner.plan(
                 table,
                 self.clearance,
-                (world.version, suspected),
+                (world.version, suspected, grow),
                 tuple(float(v) for v in pose),
                 s.goals,
                 s.ordered,
                 cancel,
                 static=(world.static_clearance_at, world.static_version),
+                previous=remaining,
             )
             if plan.status not in ("unreachable", "unsolvable"):
                 break
@@ -198,14 +217,12 @@ class NavigationStrategy:
         return None
 
     @staticmethod
-    def _clearance(world: Any, suspected: bool) -> Any:
-        """What plans keep clear of: sensed cells and contacts inflated, suspected surfaces
-        too when ``suspected``."""
+    def _clearance(world: Any, suspected: bool, grow: float = CONTACT_INFLATION) -> Any:
+        """What plans keep clear of: sensed cells inflated, contacts by ``grow``, suspected
+        surfaces too when ``suspected``."""
 
         def clearance(pts: Any) -> Any:
-            return world.inflated_clearance_at(
-                pts, SENSED_INFLATION, CONTACT_INFLATION, suspected=suspected
-            )
+            return world.inflated_clearance_at(pts, SENSED_INFLATION, grow, suspected=suspected)
 
         return clearance
 

@@ -62,7 +62,8 @@ def contact_points(ctx: MissionContext, contact: ContactReading) -> tuple[Points
     """Where the touched thing is, and where it probably goes on. It is just outside the
     reported side of the reported part: a side bumper spans its unit, so the obstacle is marked
     along the whole side and a little beyond (what presses a side is mostly a wall or an edge,
-    seldom a point); an end bumper marks across the end. The surface is suspected to continue
+    seldom a point); an end bumper marks the point on its axis, the rest of the end's width
+    suspected. The surface is suspected to continue
     ``SUSPECT_EXTENT`` further, both ways, at up to ``SUSPECT_ANGLE`` to the part."""
     x, y, psi = ctx.pose
     pts = joint_positions(np.array([x, y, psi]), np.asarray(ctx.sensed_joints()))
@@ -110,7 +111,15 @@ def contact_points(ctx: MissionContext, contact: ContactReading) -> tuple[Points
     )
     ahead = (fan - centre) @ outward >= -0.01
     suspected = fan[off_body & ahead]
-    touched = line(-half, half, direction)
+    if contact.side in ("front", "rear"):
+        # An end bumper felt one point of its cap, somewhere within 45 degrees of the axis:
+        # only the axis point is taken as certain; the rest of the cap's width is suspected.
+        # Marking the whole width blocked passages the real obstacle leaves open (a post just
+        # off a corridor's exit, touched by the tail on the way out).
+        touched = centre[None, :]
+        suspected = np.concatenate([suspected, line(-half, half, direction)])
+    else:
+        touched = line(-half, half, direction)
     return [(float(p[0]), float(p[1])) for p in touched], [
         (float(p[0]), float(p[1])) for p in suspected
     ]
