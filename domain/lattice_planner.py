@@ -13,7 +13,7 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -22,11 +22,10 @@ from domain.goal_order import LegGoal, order_goals
 from domain.lattice import Key, LatticeGrid, LatticeSettings, MotionTable
 from domain.lattice_cache import MotionCache
 from domain.lattice_distances import centroid_need, distance_map
-from domain.lattice_pddl import LatticeGraph, lattice_problem
+from domain.lattice_plan import LatticeAction, LatticePlan
 from domain.lattice_reach import Reachability
 from domain.lattice_repair import PlanRepairer, leg_reach
 from domain.lattice_task import Clearance, LatticeHeuristic, LatticeTask, primitive_name
-from domain.pddl import Problem
 from domain.pyperplan_adapter import (
     HEURISTICS,
     SEARCHES,
@@ -40,57 +39,6 @@ from sim.world import Bounds
 
 PARTIAL_AFTER = 3000  # expansions after which a partial plan is taken, if it gets closer
 # (an expansion budget, not seconds: the same mission and seed plan the same on any machine)
-
-
-@dataclass(frozen=True)
-class LatticeAction:
-    """One step of a plan: a primitive from one lattice state to the next, or a goal visit."""
-
-    name: str  # "move" or "visit"
-    pddl: str
-    primitive: str | None  # library id of a move
-    target: tuple[float, float, float]  # tracked-point pose at the end (x, y, ψ)
-    duration: float
-    goal: int | None = None  # mission goal index of a visit
-    source: Key | None = None  # lattice state the move starts from
-    motion: int | None = None  # index of the move's motion in the shape's motion table
-
-
-@dataclass
-class LatticePlan:
-    status: str  # solved | unsolvable | unreachable | timeout | cancelled | no-primitives
-    reason: str = ""
-    actions: list[LatticeAction] = field(default_factory=list)
-    order: list[int] = field(default_factory=list)  # mission goal indices in tour order
-    expansions: int = 0
-    search_ms: float = 0.0
-    task: LatticeTask | None = None  # the first leg's task (for the PDDL export)
-    legs: list[LatticeTask] = field(default_factory=list)  # every leg's task (the PDDL export)
-    partial: bool = False  # the search ran out of time: the plan leads towards the goal only
-    graph: LatticeGraph | None = None  # the lattice a repaired plan's problem lists
-    repaired: bool = False  # the last plan made free again around a local change
-
-    def problem(self, shape: str, reshaped_from: str | None = None) -> Problem | None:
-        """The PDDL problem this plan solves (the lattice its searches generated), if any."""
-        if self.graph is not None:
-            return lattice_problem(self.graph, shape, reshaped_from)
-        return lattice_problem(self.legs, shape, reshaped_from) if self.legs else None
-
-    @property
-    def solved(self) -> bool:
-        return self.status == "solved"
-
-    @property
-    def pddl_plan(self) -> list[str]:
-        return [a.pddl for a in self.actions]
-
-    def result(self) -> PlanResult:
-        status = (
-            "solved" if self.solved else ("timeout" if self.status == "timeout" else "unsolvable")
-        )
-        if self.status == "cancelled":
-            status = "cancelled"
-        return PlanResult(status, self.pddl_plan, self.search_ms, self.expansions, self.reason)  # type: ignore[arg-type]
 
 
 @dataclass(frozen=True)
@@ -205,8 +153,9 @@ class LatticePlanner:
                 table, clearance, start, goals, previous, ordered, deadline, cancel
             )
             if fixed is not None:
-                order = [a.goal for a in fixed.actions if a.name == "visit"]
-                done = LatticePlan("solved", "repaired", fixed.actions, order, fixed.expansions)
+                done = LatticePlan(
+                    "solved", "repaired", fixed.actions, fixed.order, fixed.expansions
+                )
                 done.graph, done.repaired = fixed.graph, True
                 done.search_ms = (time.monotonic() - started) * 1e3
                 return done

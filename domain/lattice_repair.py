@@ -28,7 +28,8 @@ from domain.lattice import Key, LatticeGrid, MotionTable
 from domain.lattice_cache import MotionCache
 from domain.lattice_distances import centroid_need, window_distance_map
 from domain.lattice_pddl import LatticeGraph
-from domain.lattice_task import Clearance, LatticeTask, primitive_name, start_allowance
+from domain.lattice_plan import LatticeAction
+from domain.lattice_task import Clearance, LatticeTask, start_allowance
 from domain.pyperplan_adapter import CancelFlag, SearchStopped
 from sim.robot import Array
 
@@ -46,23 +47,29 @@ BUDGET = 150  # expansions before a repair gives up (a budget, not seconds: dete
 class PlanStep:
     """One remaining action of a plan, as the repair reads it."""
 
-    action: Any  # the planner's LatticeAction
+    action: LatticeAction
     state: int  # lattice state number the action starts from
     after: int  # ... and where it leaves the robot (the same for a visit)
     motion: int | None  # motion index of a move
+    label: str  # the move's primitive (PDDL name), or the visit's goal point (``g3``)
+
+    @property
+    def goal(self) -> int:
+        """The goal index a visit visits."""
+        return int(self.label[1:])
 
 
-def plan_steps(grid: LatticeGrid, actions: Sequence[Any]) -> list[PlanStep] | None:
+def plan_steps(grid: LatticeGrid, actions: Sequence[LatticeAction]) -> list[PlanStep] | None:
     """The actions with their lattice states (``None`` if they are not a lattice plan: a
     shape change, or a move without its motion)."""
     out = []
     for a in actions:
         parts = a.pddl.strip("()").split()
         if a.name == "move" and a.motion is not None:
-            out.append(PlanStep(a, int(parts[1][1:]), int(parts[2][1:]), a.motion))
+            out.append(PlanStep(a, int(parts[1][1:]), int(parts[2][1:]), a.motion, parts[3]))
         elif a.name == "visit":
             n = int(parts[1][1:])
-            out.append(PlanStep(a, n, n, None))
+            out.append(PlanStep(a, n, n, None, parts[2]))
         else:
             return None
     return out
@@ -156,10 +163,15 @@ class RejoinHeuristic(Heuristic):  # type: ignore[misc]
 class Repair:
     """A repaired plan: its actions and the lattice its problem lists."""
 
-    actions: list[Any]
+    actions: list[LatticeAction]
     graph: LatticeGraph
     expansions: int = 0
     detour: int = 0  # moves searched anew (0: the old plan was still free as it was)
+
+    @property
+    def order(self) -> list[int]:
+        """The goals in the order the plan visits them."""
+        return [a.goal for a in self.actions if a.name == "visit" and a.goal is not None]
 
 
 class PlanRepairer:
@@ -171,7 +183,9 @@ class PlanRepairer:
         margin: float,
         start_margin: float,
         search: Callable[..., Any],
-        actions_of: Callable[[LatticeTask, MotionTable, list[str]], tuple[list[Any], Key]],
+        actions_of: Callable[
+            [LatticeTask, MotionTable, list[str]], tuple[list[LatticeAction], Key]
+        ],
         cache_of: Callable[[MotionTable], MotionCache],
     ) -> None:
         self.grid, self.margin, self.start_margin = grid, margin, start_margin
@@ -183,7 +197,7 @@ class PlanRepairer:
         clearance: Clearance,
         start: Key,
         goals: Sequence[LegGoal],
-        previous: Sequence[Any],
+        previous: Sequence[LatticeAction],
         ordered: bool,
         deadline: float,
         cancel: CancelFlag | None,
@@ -264,16 +278,18 @@ class PlanRepairer:
     def _visits_goals(steps: Sequence[PlanStep], goals: Sequence[LegGoal], ordered: bool) -> bool:
         """Whether the steps visit exactly ``goals`` (in their order if ``ordered``), each
         where the head is on it (a goal moved since is not)."""
-        visits = [s.action for s in steps if s.motion is None]
+        visits = [s for s in steps if s.motion is None]
         by_index = {g.index: g for g in goals}
-        if len(visits) != len(goals) or {a.goal for a in visits} != set(by_index):
+        if len(visits) != len(goals) or {s.goal for s in visits} != set(by_index):
             return False
-        if ordered and [a.goal for a in visits] != [g.index for g in goals]:
+        if ordered and [s.goal for s in visits] != [g.index for g in goals]:
             return False
         return all(
-            math.hypot(a.target[0] - by_index[a.goal].x, a.target[1] - by_index[a.goal].y)
-            <= leg_reach(by_index[a.goal]) + 1e-9
-            for a in visits
+            math.hypot(
+                s.action.target[0] - by_index[s.goal].x, s.action.target[1] - by_index[s.goal].y
+            )
+            <= leg_reach(by_index[s.goal]) + 1e-9
+            for s in visits
         )
 
     def _window(self, keys: Sequence[Key]) -> tuple[slice, slice] | None:
@@ -331,15 +347,17 @@ class PlanRepairer:
             return None
         return None if plan is None else [op.name for op in plan]
 
-    def _graph(self, start: Key, actions: Sequence[Any], goals: Sequence[LegGoal]) -> LatticeGraph:
+    def _graph(
+        self, start: Key, actions: Sequence[LatticeAction], goals: Sequence[LegGoal]
+    ) -> LatticeGraph:
         """The plan's own moves and visits as a lattice problem's graph (every move in it has
         just been checked free)."""
         graph = LatticeGraph(start, self.grid.encode(start))
         for step in plan_steps(self.grid, actions) or []:
             if step.motion is None:
-                graph.near.add((step.state, int(step.action.goal)))
+                graph.near.add((step.state, step.goal))
             else:
-                graph.edges.add((step.state, step.after, primitive_name(step.action.primitive)))
+                graph.edges.add((step.state, step.after, step.label))
         for g in goals:
             graph.goals.append((g.index, g.x, g.y, leg_reach(g)))
         return graph

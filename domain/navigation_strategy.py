@@ -20,7 +20,8 @@ import numpy as np
 
 from domain.lattice import LatticeSettings, MotionTable, compose, motion_table, relative
 from domain.lattice_pddl import lattice_domain
-from domain.lattice_planner import LatticeAction, LatticePlan, LatticePlanner
+from domain.lattice_plan import LatticeAction, LatticePlan
+from domain.lattice_planner import LatticePlanner
 from domain.lattice_task import LatticeTask, primitive_name
 from domain.pyperplan_adapter import CancelFlag
 from domain.reshape import reshape_clear, reshape_duration

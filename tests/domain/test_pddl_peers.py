@@ -27,7 +27,8 @@ from unified_planning.shortcuts import OneshotPlanner, PlanValidator, get_enviro
 from domain.goal_order import LegGoal
 from domain.lattice import LatticeSettings, motion_table
 from domain.lattice_pddl import lattice_domain, lattice_problem
-from domain.lattice_planner import LatticePlan, LatticePlanner
+from domain.lattice_plan import LatticePlan
+from domain.lattice_planner import LatticePlanner
 from domain.pyperplan_adapter import parse_and_ground, search_task, validate_plan
 from domain.reactive import ReactiveState, plan_reactive, reactive_domain, reactive_problem
 from domain.worldmodel import WorldModel

@@ -1,0 +1,63 @@
+"""A lattice plan: its actions (library primitives between lattice states, goal visits), its
+status and reason, and the PDDL problem it solves."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from domain.lattice import Key
+from domain.lattice_pddl import LatticeGraph, lattice_problem
+from domain.lattice_task import LatticeTask
+from domain.pddl import Problem
+from domain.pyperplan_adapter import PlanResult
+
+
+@dataclass(frozen=True)
+class LatticeAction:
+    """One step of a plan: a primitive from one lattice state to the next, or a goal visit."""
+
+    name: str  # "move" or "visit"
+    pddl: str
+    primitive: str | None  # library id of a move
+    target: tuple[float, float, float]  # tracked-point pose at the end (x, y, ψ)
+    duration: float
+    goal: int | None = None  # mission goal index of a visit
+    source: Key | None = None  # lattice state the move starts from
+    motion: int | None = None  # index of the move's motion in the shape's motion table
+
+
+@dataclass
+class LatticePlan:
+    status: str  # solved | unsolvable | unreachable | timeout | cancelled | no-primitives
+    reason: str = ""
+    actions: list[LatticeAction] = field(default_factory=list)
+    order: list[int] = field(default_factory=list)  # mission goal indices in tour order
+    expansions: int = 0
+    search_ms: float = 0.0
+    task: LatticeTask | None = None  # the first leg's task (for the PDDL export)
+    legs: list[LatticeTask] = field(default_factory=list)  # every leg's task (the PDDL export)
+    partial: bool = False  # the search ran out of time: the plan leads towards the goal only
+    graph: LatticeGraph | None = None  # the lattice a repaired plan's problem lists
+    repaired: bool = False  # the last plan made free again around a local change
+
+    def problem(self, shape: str, reshaped_from: str | None = None) -> Problem | None:
+        """The PDDL problem this plan solves (the lattice its searches generated), if any."""
+        if self.graph is not None:
+            return lattice_problem(self.graph, shape, reshaped_from)
+        return lattice_problem(self.legs, shape, reshaped_from) if self.legs else None
+
+    @property
+    def solved(self) -> bool:
+        return self.status == "solved"
+
+    @property
+    def pddl_plan(self) -> list[str]:
+        return [a.pddl for a in self.actions]
+
+    def result(self) -> PlanResult:
+        status = (
+            "solved" if self.solved else ("timeout" if self.status == "timeout" else "unsolvable")
+        )
+        if self.status == "cancelled":
+            status = "cancelled"
+        return PlanResult(status, self.pddl_plan, self.search_ms, self.expansions, self.reason)  # type: ignore[arg-type]
