@@ -98,11 +98,12 @@ class NavigationStrategy:
         old = self.plan.pddl_plan[self.index :] if self.plan else []
         table = self.table_for(s.shape, s.joints)
         # What remains of a full plan on this lattice may only need a local repair.
-        # Repairs keep the old plan's far part, planned on older knowledge: after a few in a
-        # row, the whole way is planned again.
+        # Repairs keep the old plan's far part, planned on older knowledge: only for what the
+        # range sensors found on the way (a contact says the old plan ran along something
+        # unseen: it is planned again whole), and after a few in a row, the whole way again.
         remaining: list[LatticeAction] = []
         usable = self.plan and self.plan.solved and not self.plan.partial and table is self.table
-        if usable and self.plan and self.repairs < MAX_REPAIRS:
+        if usable and self.plan and isinstance(trigger, PathBlocked) and self.repairs < MAX_REPAIRS:
             remaining = self.plan.actions[self.index :]
         self.running, self.index, self.arrive_tries = None, 0, 0
         if table is None:
@@ -122,8 +123,13 @@ class NavigationStrategy:
             if self.plan.solved and not self.plan.partial:
                 self.recoveries = 0
             elif self.plan.status == "timeout" and self.recoveries < MAX_RECOVERIES:
-                # Nav2-style recovery: turn in place to sense around, then plan again.
-                spin = self._spin(table, s, world)
+                # Nav2-style recovery: turn in place to sense around, then plan again; just
+                # after a contact, back off further instead (a turn swings the body round
+                # by what it touched, whose extent is unknown).
+                if isinstance(trigger, Contact):
+                    spin = self._back_off(trigger, table)
+                else:
+                    spin = self._spin(table, s, world)
                 if spin:
                     self.recoveries += 1
                     self.backoff += spin
@@ -360,9 +366,10 @@ class NavigationStrategy:
         robot's state (the state the real pose snaps to)."""
         key = self.planner.key_of(table, s.pose)
         margin = self.settings.margin
-        task = LatticeTask(
-            self.planner.grid, table, self.clearance, key, (0.0, 0.0), 0.0, margin, margin
-        )
+        # Sensing around must not touch again: kept clear of contacts with their full
+        # inflation and of suspected surfaces, whatever the last plan was allowed.
+        wary = self._clearance(world, True, CONTACT_INFLATION)
+        task = LatticeTask(self.planner.grid, table, wary, key, (0.0, 0.0), 0.0, margin, margin)
         free = {table.motions[m].primitive for _, m in task.valid_motions(key)}
         turns = sorted(
             (e for e in self.library.lattice(table.shape) if e.turn != 0.0 and e.id in free),
