@@ -12,6 +12,7 @@ sensor dropouts) are not modelled here.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import NDArray
@@ -31,21 +32,45 @@ def _points(pose: Array, phi: Array, geometry: RobotGeometry) -> tuple[Array, Ar
     return joint_positions(pose, phi, geometry), head_tip(pose, geometry)
 
 
-def free_within(world: World, scene: Scene, fp: Footprint, distance: Array) -> Mask:
-    """``World.free_within`` for K footprints (``[K, 5, 2]`` capsule ends) and distances ``[K]``.
+def gaps(world: World, scene: Scene, fp: Footprint, margin: Array) -> Array:
+    """Each of K footprints' (``[K, 5, 2]`` capsule ends) smallest gap to a wall or an obstacle,
+    negative when they overlap, for deciding whether it is below ``margin`` ``[K]`` (or 0).
 
-    All obstacles are measured, not only those near each footprint: the ones ``World`` leaves out
-    lie further than ``distance`` plus the largest radius and cannot change the answer.
+    A footprint's obstacles are measured only when some bounding box comes within ``margin`` plus
+    the largest radius of its capsule axes (``World``'s own cut): the others are further than
+    ``margin`` and cannot change the decision, so the gap may read larger than they are.
     """
     ends = np.concatenate([fp.starts, fp.ends], axis=-2)  # [K, 10, 2]
     radii = np.concatenate([fp.radii, fp.radii])
     gap = np.min(world.bounds.wall_clearance(ends) - radii, axis=-1)
-    if scene.count:
-        k = fp.starts.shape[0]
-        clearance = scene.segment_clearance(fp.starts.reshape(-1, 2), fp.ends.reshape(-1, 2))
-        clearance = clearance.reshape(k, len(fp.radii), scene.count) - fp.radii[:, None]
-        gap = np.minimum(gap, clearance.min(axis=(1, 2)))
-    return np.asarray(distance <= np.maximum(gap, 0.0))
+    if not scene.count:
+        return np.asarray(gap)
+    reach = (margin + float(np.max(fp.radii)))[:, None]
+    lo, hi, b = ends.min(axis=1), ends.max(axis=1), scene.boxes
+    close = (
+        (b[:, 0] <= hi[:, :1] + reach)
+        & (b[:, 2] >= lo[:, :1] - reach)
+        & (b[:, 1] <= hi[:, 1:] + reach)
+        & (b[:, 3] >= lo[:, 1:] - reach)
+    )  # [K, N]
+    near = np.flatnonzero(close.any(axis=1))
+    if near.size:
+        starts, stops = fp.starts[near].reshape(-1, 2), fp.ends[near].reshape(-1, 2)
+        clearance = scene.segment_clearance(starts, stops)
+        clearance = clearance.reshape(near.size, len(fp.radii), scene.count) - fp.radii[:, None]
+        gap[near] = np.minimum(gap[near], clearance.min(axis=(1, 2)))
+    return np.asarray(gap)
+
+
+def free_within(world: World, scene: Scene, fp: Footprint, distance: Array) -> Mask:
+    """``World.free_within`` for K footprints and distances ``[K]``."""
+    return np.asarray(distance <= np.maximum(gaps(world, scene, fp, distance), 0.0))
+
+
+def overlaps(world: World, scene: Scene, fp: Footprint) -> Mask:
+    """Whether each of K footprints touches a wall or an obstacle (``World.contact`` is not
+    ``None``: a clearance below a radius is a negative gap)."""
+    return np.asarray(gaps(world, scene, fp, np.zeros(fp.starts.shape[0])) < 0)
 
 
 def step_fixed_shapes(
@@ -152,18 +177,29 @@ def read_ranges(
 
 
 def add_noise(
-    sensors: SensorSuite, ranges: Array, echo: Mask, joints: Array, rng: np.random.Generator
+    sensors: SensorSuite,
+    ranges: Array,
+    echo: Mask,
+    joints: Array,
+    rngs: Sequence[np.random.Generator],
 ) -> tuple[Array, Array]:
-    """One robot's noisy readings from its noise-free ``ranges`` ``[S]`` and ``joints`` ``[3]``,
-    drawing from ``rng`` in ``SensorSuite.read``'s order (ranges with an echo, then joints)."""
-    ranges = ranges.copy()
-    for j, sensor in enumerate(sensors.range_sensors):
-        if sensor.noise_std > 0 and echo[j]:
-            noisy = ranges[j] + rng.normal(0, sensor.noise_std)
-            ranges[j] = float(np.clip(noisy, 0, np.nextafter(sensor.max_range, 0)))
-    if sensors.joint_noise_std > 0:
-        joints = joints + rng.normal(0, sensors.joint_noise_std, size=3)
-    return ranges, joints
+    """Noisy readings of K robots from their noise-free ``ranges`` ``[K, S]`` and ``joints``
+    ``[K, 3]``, robot k drawing from ``rngs[k]`` what ``SensorSuite.read`` draws, in its order
+    (the ranges with an echo, then the joints): ``normal(0, σ)`` is ``σ·standard_normal()``."""
+    suite = sensors.range_sensors
+    stds = np.array([s.noise_std for s in suite]).reshape(len(suite))
+    draws = echo & (stds > 0)  # [K, S]
+    joint_draws = np.full((len(rngs), 3), sensors.joint_noise_std > 0)
+    wanted = np.concatenate([draws, joint_draws], axis=1)
+    counts = wanted.sum(axis=1).tolist()
+    z = np.zeros(wanted.shape)
+    # Row-major boolean indexing visits each robot's draws in order, robot after robot.
+    z[wanted] = np.concatenate(
+        [rng.standard_normal(n) for rng, n in zip(rngs, counts, strict=True)]
+    )
+    caps = np.nextafter(np.array([s.max_range for s in suite]), 0)
+    noisy = np.clip(ranges + stds * z[:, : len(suite)], 0, caps)
+    return np.where(draws, noisy, ranges), joints + sensors.joint_noise_std * z[:, len(suite) :]
 
 
 def is_noisy(sensors: SensorSuite) -> bool:

@@ -22,7 +22,7 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numpy.typing import ArrayLike, NDArray
 
-from sim.batch_step import add_noise, is_noisy, read_ranges, step_fixed_shapes
+from sim.batch_step import add_noise, is_noisy, overlaps, read_ranges, step_fixed_shapes
 from sim.controls import as_batch, check_joint_angles, clamp_joints
 from sim.env import COLLISION_PENALTY, SnakeEnv
 from sim.gym_env import SEED_SPAN
@@ -128,10 +128,9 @@ class SnakeVectorEnv(VectorEnv[Array, Array, NDArray[Any]]):
         self, envs: NDArray[np.intp], seeds: list[int | None], pose: Array, joints: Array
     ) -> None:
         """Reset sub-environments ``envs`` to rows of ``pose`` and ``joints`` (``[K, 3]``)."""
-        world, geometry = self.simulator.world, self.simulator.geometry
-        for i in envs:
-            if world.contact(footprint(pose[i], joints[i], geometry)) is not None:
-                raise ValueError("pose: the robot's start footprint overlaps an obstacle or a wall")
+        fp = footprint(pose[envs], joints[envs], self.simulator.geometry)
+        if np.any(overlaps(self.simulator.world, self.scene, fp)):
+            raise ValueError("pose: the robot's start footprint overlaps an obstacle or a wall")
         for i in envs:
             rng = self.rngs[i]
             if seeds[i] is not None or rng is None:
@@ -146,13 +145,11 @@ class SnakeVectorEnv(VectorEnv[Array, Array, NDArray[Any]]):
     def _observe(self, envs: NDArray[np.intp]) -> None:
         """Read the sensors of sub-environments ``envs`` into their observation rows."""
         sensors = self.simulator.sensors
-        pose, joints = self.pose[envs], self.joints[envs].copy()
+        pose, joints = self.pose[envs], self.joints[envs]
         ranges, echo = read_ranges(self.simulator.world, self.scene, sensors, pose)
         if is_noisy(sensors):  # each robot draws from its own stream, in the simulator's order
-            for row, i in enumerate(envs):
-                ranges[row], joints[row] = add_noise(
-                    sensors, ranges[row], echo[row], joints[row], self.sensor_rngs[i]
-                )
+            rngs = [self.sensor_rngs[i] for i in envs]
+            ranges, joints = add_noise(sensors, ranges, echo, joints, rngs)
         head = np.stack([pose[:, 0], pose[:, 1], np.cos(pose[:, 2]), np.sin(pose[:, 2])], -1)
         to_goal = self.goal - pose[:, :2]
         self.obs[envs] = np.concatenate([head, joints, to_goal, ranges], axis=-1)
