@@ -155,8 +155,9 @@ def read_ranges(
 ) -> tuple[Array, Mask]:
     """Noise-free range readings ``[K, S]`` of the suite's sensors at poses ``[K, 3]`` and whether
     each saw something within its range (an echo, the readings that take noise), as
-    ``SensorSuite.read`` makes them. All walls and obstacles are cast against: those the
-    single-robot cast leaves out lie beyond the sensors' reach and read the same."""
+    ``SensorSuite.read`` makes them. As in ``World.ray_cast``, a robot's rays meet only the walls
+    and obstacles that could be within the sensors' reach (the rest would be hit beyond it,
+    which reads as nothing within range); a robot near one is cast against all of them."""
     suite = sensors.range_sensors
     k = pose.shape[0]
     if not suite:
@@ -165,11 +166,30 @@ def read_ranges(
     origins = head_tip(pose, sensors.geometry)
     forward = pose[:, 2] + math.pi
     dirs = unit_vectors(forward[:, None] + np.concatenate(angles)[None, :])  # [K, R, 2]
-    corners = world.bounds.corners()
-    nearest = _ray_hits(origins, dirs, corners, np.roll(corners, -1, axis=0)).min(axis=-1)
+    reach = max(s.max_range for s in suite)
+    nearest = np.full(dirs.shape[:2], np.inf)  # [K, R]
+    b = world.bounds
+    x, y = origins[:, 0], origins[:, 1]
+    walls = np.flatnonzero(
+        np.minimum(np.minimum(y - b.ymin, b.xmax - x), np.minimum(b.ymax - y, x - b.xmin)) <= reach
+    )
+    if walls.size:
+        corners = b.corners()
+        hits = _ray_hits(origins[walls], dirs[walls], corners, np.roll(corners, -1, axis=0))
+        nearest[walls] = hits.min(axis=-1)
     if scene.count:
-        hits = _obstacle_hits(scene, origins, dirs).min(axis=-1)
-        nearest = np.minimum(nearest, hits)  # [K, R]
+        box = scene.boxes
+        near = np.flatnonzero(
+            (
+                (box[:, 0] <= x[:, None] + reach)
+                & (box[:, 2] >= x[:, None] - reach)
+                & (box[:, 1] <= y[:, None] + reach)
+                & (box[:, 3] >= y[:, None] - reach)
+            ).any(axis=1)
+        )
+        if near.size:
+            hits = _obstacle_hits(scene, origins[near], dirs[near]).min(axis=-1)
+            nearest[near] = np.minimum(nearest[near], hits)
     starts = np.cumsum([0, *(a.size for a in angles)])
     per_sensor = np.minimum.reduceat(nearest, starts[:-1], axis=-1)  # [K, S]
     caps = np.array([s.max_range for s in suite])

@@ -23,7 +23,7 @@ from sim.scene import Scene
 from sim.sensors import SensorSuite, range_ring
 from sim.simulator import Simulator
 from sim.vector_env import SnakeVectorEnv
-from sim.world import World, footprint
+from sim.world import WALL, Bounds, World, footprint
 
 NORMALISE_HINT = "we recommend using a symmetric and normalized space"
 
@@ -32,7 +32,8 @@ def cluttered(
     noise: float = 0.02, events: tuple[SensorDropout, ...] = (), joint_noise: float = 0.0
 ) -> Simulator:
     """A small arena with a disc and a bar near the start, a ring of noisy range sensors."""
-    world = World(obstacles=(Circle(-0.8, 0.0, 0.2), rectangle(0.5, -0.6, 2.0, 0.1)))
+    obstacles = (Circle(-0.8, 0.0, 0.2), rectangle(0.5, -0.6, 2.0, 0.1))
+    world = World(Bounds(-2.2, 2.2, -2.2, 2.2), obstacles)
     sensors = SensorSuite(range_ring(6, noise_std=noise), joint_noise_std=joint_noise)
     return Simulator(world, sensors=sensors, events=events)
 
@@ -221,7 +222,7 @@ def test_batched_step_moves_and_stops_each_robot_as_the_simulator_does() -> None
         sim.world, scene, sim.geometry, pose, joints, theta, phi, sim.dt, sim.check_step
     )
     ranges, _ = read_ranges(sim.world, scene, sim.sensors, moved)
-    stopped = 0
+    stopped, walls = 0, 0
     for k in range(len(pose)):
         sim.reset(pose[k], joints[k])
         result = sim.step(FixedShape(theta[k : k + 1], phi[k : k + 1]))
@@ -231,4 +232,5 @@ def test_batched_step_moves_and_stops_each_robot_as_the_simulator_does() -> None
         expected = [result.readings.ranges[s.name] for s in sim.sensors.range_sensors]
         assert np.allclose(ranges[k], expected, rtol=0, atol=1e-9)
         stopped += result.contact is not None
-    assert len(pose) > 200 and 20 < stopped < len(pose) - 20
+        walls += WALL in result.readings.hits.values()
+    assert len(pose) > 200 and 20 < stopped < len(pose) - 20 and walls > 20
