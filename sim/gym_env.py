@@ -16,6 +16,7 @@ Spaces, in physical units and float64 (the simulator's precision):
 
 from __future__ import annotations
 
+import copy
 from typing import Any
 
 import gymnasium
@@ -44,7 +45,9 @@ class SnakeGymEnv(gymnasium.Env[Array, Array]):
 
     ``reset(seed=s)`` seeds ``np_random``; every reset draws the sensor-noise seed from it, so a
     seeded episode and the unseeded ones after it repeat exactly. ``options`` may give the start
-    ``pose`` ``[x, y, ψ]`` and ``joints`` ``[φ1, φ2, φ3]``.
+    ``pose`` ``[x, y, ψ]`` and ``joints`` ``[φ1, φ2, φ3]``. The env steps its own copy of
+    ``simulator`` (``env.core.simulator``): gymnasium's ``make_vec(..., vectorization_mode="sync",
+    simulator=sim)`` hands every sub-environment the same object.
     """
 
     metadata: dict[str, Any] = {"render_modes": ["rgb_array"], "render_fps": 2}  # noqa: RUF012
@@ -61,7 +64,7 @@ class SnakeGymEnv(gymnasium.Env[Array, Array]):
     ) -> None:
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"render_mode: must be one of {self.metadata['render_modes']}")
-        sim = simulator if simulator is not None else Simulator()
+        sim = copy.deepcopy(simulator) if simulator is not None else Simulator()
         self.core = SnakeEnv(goal, tolerance, max_steps, start, start_joints, sim)
         self.render_mode = render_mode
         low, high = self.core.observation_bounds()

@@ -234,3 +234,37 @@ def test_batched_step_moves_and_stops_each_robot_as_the_simulator_does() -> None
         stopped += result.contact is not None
         walls += WALL in result.readings.hits.values()
     assert len(pose) > 200 and 20 < stopped < len(pose) - 20 and walls > 20
+
+
+def test_vector_env_agrees_with_gymnasiums_own_sync_vector_env() -> None:
+    """The declared autoreset mode is gymnasium's: SyncVectorEnv of single envs in NEXT_STEP mode
+    gives the same batches, step after step."""
+    kwargs = {"goal": (-0.4, 0.0), "max_steps": 10, "tolerance": 0.1}
+    ours = SnakeVectorEnv(4, simulator=cluttered(), **kwargs)
+    theirs = gymnasium.vector.SyncVectorEnv(
+        [lambda: SnakeGymEnv(simulator=cluttered(), **kwargs) for _ in range(4)],
+        autoreset_mode=AutoresetMode.NEXT_STEP,
+    )
+    assert np.array_equal(ours.reset(seed=11)[0], theirs.reset(seed=11)[0])
+    ours.action_space.seed(1)
+    resets = 0
+    for _ in range(40):
+        actions = ours.action_space.sample()
+        mine, reference = ours.step(actions), theirs.step(actions)
+        for got, want in zip(mine[:4], reference[:4], strict=True):
+            assert np.allclose(got, want, rtol=0, atol=1e-9)
+        resets += int(np.sum(mine[2] | mine[3]))
+    assert resets > 4
+
+
+def test_make_vec_sync_and_the_batched_env_agree_from_one_simulator_argument() -> None:
+    """gymnasium hands every sub-environment the same keyword arguments: each must still step a
+    robot of its own."""
+    kwargs = {"goal": (-0.4, 0.0), "max_steps": 10, "simulator": cluttered()}
+    sync = gymnasium.make_vec(ENV_ID, num_envs=3, vectorization_mode="sync", **kwargs)
+    batched = gymnasium.make_vec(ENV_ID, num_envs=3, **kwargs)
+    assert np.array_equal(sync.reset(seed=2)[0], batched.reset(seed=2)[0])
+    batched.action_space.seed(2)
+    for _ in range(15):
+        actions = batched.action_space.sample()
+        assert np.allclose(sync.step(actions)[0], batched.step(actions)[0], rtol=0, atol=1e-9)
