@@ -98,8 +98,8 @@ class SnakeVectorEnv(VectorEnv[Array, Array, NDArray[Any]]):
         """One seed per sub-environment: ``seed + i`` for an int (gymnasium's convention)."""
         if seed is None:
             return [None] * self.num_envs
-        if isinstance(seed, int):
-            return [seed + i for i in range(self.num_envs)]
+        if isinstance(seed, int | np.integer):
+            return [int(seed) + i for i in range(self.num_envs)]
         if len(seed) != self.num_envs:
             raise ValueError(f"seed: {len(seed)} seeds for {self.num_envs} environments")
         return list(seed)
@@ -180,10 +180,10 @@ class SnakeVectorEnv(VectorEnv[Array, Array, NDArray[Any]]):
         terminated = np.zeros(self.num_envs, dtype=bool)
         truncated = np.zeros(self.num_envs, dtype=bool)
         collided = np.zeros(self.num_envs, dtype=bool)
-        if done.any():
-            template = self.template
-            starts = np.repeat(np.array([template.start], dtype=float), self.num_envs, 0)
-            joints = np.repeat(np.array([template.start_joints], dtype=float), self.num_envs, 0)
+        if done.any():  # NEXT_STEP autoreset, to the start as an unseeded reset() would
+            starts = _per_env(self.template.start, 3, "start", self.num_envs)
+            joints = _per_env(self.template.start_joints, 3, "start_joints", self.num_envs)
+            joints = clamp_joints(joints, self.simulator.geometry)
             self._reset(np.flatnonzero(done), [None] * self.num_envs, starts, joints)
         if live.size:
             before = self._distance()[live]
