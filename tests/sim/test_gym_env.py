@@ -57,7 +57,7 @@ def checker_warnings(env: gymnasium.Env[np.ndarray, np.ndarray]) -> list[str]:
     ids=["default", "cluttered-with-dropout"],
 )
 def test_check_env_passes_and_only_suggests_normalised_actions(kwargs: dict[str, object]) -> None:
-    env = gymnasium.make(ENV_ID, **kwargs)
+    env = gymnasium.make(f"sim.gym_env:{ENV_ID}", **kwargs)
     assert isinstance(env.unwrapped, SnakeGymEnv)
     found = checker_warnings(env.unwrapped)
     # The action space is in physical units (rad/s, rad) as the simulator takes them; the
