@@ -3,6 +3,7 @@
 Action: 7 numbers, the 4 screw speeds and the 3 joint angles to hold (U2 of the paper).
 Observation: ``[x, y, cos ψ, sin ψ, φ1, φ2, φ3 (sensed), goal dx, goal dy, ranges...]``.
 Reward: progress towards the goal in metres this step, minus 1 on a collision.
+A dropped-out reading is NaN here; ``sim.gym_env`` (the ``gymnasium.Env``) reads it as ``DROPPED``.
 """
 
 from __future__ import annotations
@@ -15,11 +16,13 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from sim.controls import FixedShape, as_batch
+from sim.events import SensorDropout
 from sim.robot import Array
 from sim.sensors import SensorReadings
 from sim.simulator import Simulator
 
 COLLISION_PENALTY = 1.0
+DROPPED = -2.0  # below every reading's range: ranges are >= 0, joint angles >= -π/2
 
 
 @dataclass
@@ -53,6 +56,28 @@ class SnakeEnv:
     @property
     def observation_size(self) -> int:
         return 9 + len(self.simulator.sensors.range_sensors)
+
+    def observation_bounds(self) -> tuple[Array, Array]:
+        """Lowest and highest value of each observation entry: the tracked point stays inside the
+        arena (its walls stop it), joints within ±π/2 (unbounded with joint noise), ranges within
+        ``[0, max_range]``; a sensor some dropout names may also read ``DROPPED``."""
+        b = self.simulator.world.bounds
+        gx, gy = self.goal
+        suite = self.simulator.sensors
+        dropped = {
+            name
+            for e in self.simulator.events
+            if isinstance(e, SensorDropout)
+            for name in e.sensors
+        }
+        joint = math.inf if suite.joint_noise_std > 0 else self.simulator.geometry.joint_limit
+        joint_low = min(-joint, DROPPED) if "joints" in dropped else -joint
+        low = [b.xmin, b.ymin, -1.0, -1.0, *[joint_low] * 3, gx - b.xmax, gy - b.ymax]
+        high = [b.xmax, b.ymax, 1.0, 1.0, *[joint] * 3, gx - b.xmin, gy - b.ymin]
+        for s in suite.range_sensors:
+            low.append(DROPPED if s.name in dropped else 0.0)
+            high.append(s.max_range)
+        return np.array(low, dtype=float), np.array(high, dtype=float)
 
     def _distance(self) -> float:
         p = self.simulator.pose
