@@ -124,7 +124,9 @@ def calibration() -> float:
 def ratios(rounds: int) -> None:
     print(f"Part 1: K = {K} rollouts x 100 steps (dt = 1, T = 100); batched and reference timed")
     print(f"in turns, {rounds} rounds, best of each; ratio = reference time / batched time, on CPU")
-    print("time (wall-clock ratio beside it); numba compiled or loaded beforehand (Part 3), not timed")
+    print(
+        "time (wall-clock ratio beside it); numba compiled or loaded beforehand (Part 3), not timed"
+    )
     print(
         f"{'case':<22}{'kernel':<7}{'batched [ms]':>13}{'ref [ms]':>10}{'rollouts/s':>12}"
         f"{'ratio':>8}{'wall':>8}{'max |diff|':>12}"
