@@ -123,13 +123,8 @@ class NavigationStrategy:
             if self.plan.solved and not self.plan.partial:
                 self.recoveries = 0
             elif self.plan.status == "timeout" and self.recoveries < MAX_RECOVERIES:
-                # Nav2-style recovery: turn in place to sense around, then plan again; just
-                # after a contact, back off further instead (a turn swings the body round
-                # by what it touched, whose extent is unknown).
-                if isinstance(trigger, Contact):
-                    spin = self._back_off(trigger, table)
-                else:
-                    spin = self._spin(table, s, world)
+                # Nav2-style recovery: turn in place to sense around, then plan again.
+                spin = self._spin(table, s, world)
                 if spin:
                     self.recoveries += 1
                     self.backoff += spin
@@ -366,10 +361,9 @@ class NavigationStrategy:
         robot's state (the state the real pose snaps to)."""
         key = self.planner.key_of(table, s.pose)
         margin = self.settings.margin
-        # Sensing around must not touch again: kept clear of contacts with their full
-        # inflation and of suspected surfaces, whatever the last plan was allowed.
-        wary = self._clearance(world, True, CONTACT_INFLATION)
-        task = LatticeTask(self.planner.grid, table, wary, key, (0.0, 0.0), 0.0, margin, margin)
+        task = LatticeTask(
+            self.planner.grid, table, self.clearance, key, (0.0, 0.0), 0.0, margin, margin
+        )
         free = {table.motions[m].primitive for _, m in task.valid_motions(key)}
         turns = sorted(
             (e for e in self.library.lattice(table.shape) if e.turn != 0.0 and e.id in free),
