@@ -40,7 +40,7 @@ ON_PLAN = 4  # the robot counts as on the plan if its state is one of the next t
 PAD = 0.8  # metres the search window reaches beyond the detour's ends and the blocked moves
 WINDOW_BLOCK = 16  # cells: window sides are multiples of this
 MAX_WINDOW = 8.0  # metres: a detour needing a larger window is left to a full plan
-BUDGET = 150  # expansions before a repair gives up (a budget, not seconds: deterministic)
+BUDGET = 100  # expansions before a repair gives up (a budget, not seconds: deterministic)
 
 
 @dataclass(frozen=True)
