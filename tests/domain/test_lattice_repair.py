@@ -56,24 +56,8 @@ def assert_valid_from(p, world, result, pose):
     assert math.dist(last.target[:2], GOAL) <= 0.06
 
 
-def test_an_obstacle_found_on_the_path_is_repaired_around_locally() -> None:
-    p, world, first = first_plan()
-    pose, remaining = advance(first, 2)
-    moves = [a for a in remaining if a.name == "move"]
-    ahead = moves[6].target
-    world.add_contact((ahead[0], ahead[1]))
-    assert STRAIGHT is not None
-    result = p.plan(
-        STRAIGHT, world.clearance_at, world.version, pose, LEGS, True, previous=remaining
-    )
-    assert result.solved and result.repaired
-    assert 0 < result.expansions < 150
-    assert_valid_from(p, world, result, pose)
-    # The far part of the old plan is kept as it was.
-    assert result.actions[-10:] == remaining[-10:]
-
-
-def test_a_repaired_plan_solves_its_export_and_pyperplan_solves_it_again() -> None:
+def replanned_after_an_obstacle_ahead():
+    """Two moves along the first plan, something found six moves further, a replan."""
     p, world, first = first_plan()
     pose, remaining = advance(first, 2)
     ahead = [a for a in remaining if a.name == "move"][6].target
@@ -82,6 +66,20 @@ def test_a_repaired_plan_solves_its_export_and_pyperplan_solves_it_again() -> No
     result = p.plan(
         STRAIGHT, world.clearance_at, world.version, pose, LEGS, True, previous=remaining
     )
+    return p, world, pose, remaining, result
+
+
+def test_an_obstacle_found_on_the_path_is_repaired_around_locally() -> None:
+    p, world, pose, remaining, result = replanned_after_an_obstacle_ahead()
+    assert result.solved and result.repaired
+    assert 0 < result.expansions < 150
+    assert_valid_from(p, world, result, pose)
+    # The far part of the old plan is kept as it was.
+    assert result.actions[-10:] == remaining[-10:]
+
+
+def test_a_repaired_plan_solves_its_export_and_pyperplan_solves_it_again() -> None:
+    *_, result = replanned_after_an_obstacle_ahead()
     assert result.repaired
     problem = result.problem("straight")
     assert problem is not None and "repaired" in problem.text()
@@ -135,14 +133,7 @@ def test_a_way_cut_off_is_not_repaired_but_found_unreachable() -> None:
 
 
 def test_motions_kept_by_a_repair_equal_a_fresh_check() -> None:
-    p, world, first = first_plan()
-    pose, remaining = advance(first, 2)
-    ahead = [a for a in remaining if a.name == "move"][6].target
-    world.add_contact((ahead[0], ahead[1]))
-    assert STRAIGHT is not None
-    result = p.plan(
-        STRAIGHT, world.clearance_at, world.version, pose, LEGS, True, previous=remaining
-    )
+    p, world, *_, result = replanned_after_an_obstacle_ahead()
     assert result.repaired
     cache = p.motion_cache(STRAIGHT)
     m = p.settings.margin
