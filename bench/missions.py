@@ -1,7 +1,8 @@
 """Every mission of examples/, examples/hard/ and examples/untuned/, as fast as possible, checked
 against what it expects (DESIGN §8: accuracy, contacts, model time / wall time).
 
-    python -m bench.missions [--only PATTERN] [--noise SIGMA] [--repeat N] [--workers 2] [--cap 120]
+    python -m bench.missions [--only PATTERN] [--set DIR] [--noise SIGMA] [--repeat N] [--workers 2]
+        [--cap 120]
 
 A mission is ``ok`` when it ends as its ``expect`` says (``examples/`` without one: succeeded)
 and, for a success, every goal is within its tolerance and nothing known was touched (known
@@ -258,11 +259,24 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeat", type=int, default=1, help="runs per mission, best wall time")
     parser.add_argument("--workers", type=int, default=2, help="processes in the pool")
     parser.add_argument("--cap", type=float, default=120.0, help="wall seconds per mission run")
+    parser.add_argument(
+        "--set",
+        action="append",
+        metavar="DIR",
+        help="run the missions of this folder instead of the built-in sets (repeatable; the "
+        "set is named after the folder)",
+    )
     args = parser.parse_args(argv)
     if args.repeat < 1 or args.workers < 1 or not args.cap > 0:
         parser.error("--repeat and --workers must be >= 1 and --cap > 0")
     if args.noise is not None and not 0 <= args.noise <= 0.5:
         parser.error("--noise must lie in [0, 0.5] m")
+    if args.set:
+        folders = [Path(d) for d in args.set]
+        if missing := [str(d) for d in folders if not d.is_dir()]:
+            parser.error(f"--set: no such folder: {', '.join(missing)}")
+        SETS.clear()  # the named folders replace the built-in sets (rows and summary)
+        SETS.update({d.resolve().name: d for d in folders})
     jobs = [Job(j.set, j.path, args.noise, args.repeat, args.cap) for j in missions(args.only)]
     if not jobs:
         print(f"no mission matches {args.only!r}", file=sys.stderr)

@@ -57,7 +57,7 @@ def free(w: World, points: Array, radius: float) -> Array:
 
 
 @cache
-def free_components(path: Path) -> tuple[Array, Array, float]:
+def free_components(path: Path) -> tuple[Array, tuple[Array, Array], float]:
     """Labels of the free space of a disc of radius ``DISC`` on a raster (0 = blocked), the
     cell centres' axes and the cell size."""
     s = spec(path)
@@ -69,7 +69,7 @@ def free_components(path: Path) -> tuple[Array, Array, float]:
     points = np.stack([gx.ravel(), gy.ravel()], axis=-1)
     space = free(world(s), points, DISC).reshape(gx.shape)
     labels, _ = ndimage.label(space)  # 4-connected: no squeezing diagonally between cells
-    return labels, np.stack([xs, ys]), res
+    return labels, (xs, ys), res  # a tuple: the axes differ in length unless the arena is square
 
 
 def labels_near(path: Path, x: float, y: float) -> set[int]:
