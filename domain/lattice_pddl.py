@@ -13,6 +13,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from functools import cache
 from typing import cast
 
 from domain.lattice import Key
@@ -59,6 +60,12 @@ def lattice_domain() -> Domain:
             "move applies one learned library primitive whose swept footprint is free."
         ),
     )
+
+
+@cache
+def lattice_domain_text() -> str:
+    """The domain's PDDL text (the same for every plan: written once per process)."""
+    return lattice_domain().text()
 
 
 @dataclass

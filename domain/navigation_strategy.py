@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from domain.lattice import LatticeSettings, MotionTable, compose, motion_table, relative
-from domain.lattice_pddl import lattice_domain
+from domain.lattice_pddl import lattice_domain_text
 from domain.lattice_plan import LatticeAction, LatticePlan
 from domain.lattice_planner import LatticePlanner
 from domain.lattice_task import LatticeTask, primitive_name
@@ -142,7 +142,7 @@ class NavigationStrategy:
         problem = exported.text() if exported is not None else ""
         self._checked = (s.world.version, 0)
         return Replanned(
-            plan.solved, plan.reason, record, lattice_domain().text(), problem, plan.pddl_plan
+            plan.solved, plan.reason, record, lattice_domain_text(), problem, plan.pddl_plan
         )
 
     def _plan(
