@@ -16,7 +16,7 @@ from multiprocessing.queues import Queue
 from typing import Protocol
 
 from app.service.messages import Addressed, Job, Update, WorkerMessage
-from app.service.worker import serve_missions
+from app.service.worker import SharedFlag, serve_missions
 from app.settings import Settings
 from primitives.library import Library
 
@@ -74,7 +74,7 @@ class ProcessWorker:
         self.jobs: Queue[Job | None] = CONTEXT.Queue()
         self.outbox: Queue[WorkerMessage] = CONTEXT.Queue()
         self.updates: Queue[Addressed] = CONTEXT.Queue()
-        self.cancel_flag = CONTEXT.Event()
+        self.cancel_flag = SharedFlag(CONTEXT.RawValue("b", 0))
         args = (
             self.jobs,
             self.outbox,

@@ -71,6 +71,35 @@ class CancelFlag(Protocol):
     def wait(self, timeout: float | None = None) -> bool: ...
 
 
+class SharedFlag:
+    """A cancel flag in shared memory, for a pool process. Unlike a multiprocessing Event,
+    setting it never blocks: ``Event.set`` waits until its sleepers wake, so a hung (e.g.
+    stopped) worker would hang whoever cancels its mission."""
+
+    def __init__(self, value: Any) -> None:
+        self.value = value  # a RawValue("b") of the pool's multiprocessing context
+
+    def is_set(self) -> bool:
+        return bool(self.value.value)
+
+    def set(self) -> None:
+        self.value.value = 1
+
+    def clear(self) -> None:
+        self.value.value = 0
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Sleep until set or ``timeout`` seconds pass; whether it is set."""
+        deadline = time.monotonic() + (float("inf") if timeout is None else timeout)
+        while not self.is_set():
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return False
+            time.sleep(min(left, FLAG_POLL_SECONDS))
+        return True
+
+
+FLAG_POLL_SECONDS = 0.02  # how often a waiting worker looks at its cancel flag
 STATE_SAVE_SECONDS = 1.0  # wall seconds between state writes of a running mission
 PAUSED_POLL_SECONDS = 0.05  # how often a paused mission looks for resume or cancel
 EVENTS_KEPT = 1000  # events kept in a mission's stored state (the newest)
