@@ -143,8 +143,7 @@ class ProcessWorker:
 def make_workers(settings: Settings, library: Library) -> list[Worker]:
     """The pool the settings ask for: ``max_running`` local processes or Ray actors."""
     if settings.executor == "ray":
-        from app.service.ray_pool import RayWorker, connect
+        from app.service.ray_pool import RayWorker  # Ray is connected by then (``connect``)
 
-        connect(settings)
         return [RayWorker(i, library, settings) for i in range(settings.max_running)]
     return [ProcessWorker(i, library, settings) for i in range(settings.max_running)]

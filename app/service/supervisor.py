@@ -73,7 +73,13 @@ class Supervisor:
         self.loop = self.relay.loop = asyncio.get_running_loop()
         self.queue = asyncio.Queue()
         self.idle = asyncio.Queue()
-        # Starting processes (or connecting to Ray) blocks: not on the event loop.
+        if self.settings.executor == "ray":
+            # On this thread, not a passing executor thread: a local Ray instance's processes
+            # die with the thread that started them. (Once, before the service answers.)
+            from app.service.ray_pool import connect
+
+            connect(self.settings)
+        # Starting processes (or actors) blocks: not on the event loop.
         self.workers = await self.loop.run_in_executor(
             None, make_workers, self.settings, self.library
         )
