@@ -143,7 +143,7 @@ class ProcessWorker:
 def make_workers(settings: Settings, library: Library) -> list[Worker]:
     """The pool the settings ask for: ``max_running`` local processes or Ray actors."""
     if settings.executor == "ray":
-        from app.service.ray_pool import RayWorker  # Ray is connected by then (``connect``)
+        from app.service.ray_pool import make_ray_workers  # connected by then (``connect``)
 
-        return [RayWorker(i, library, settings) for i in range(settings.max_running)]
+        return list(make_ray_workers(settings, library))
     return [ProcessWorker(i, library, settings) for i in range(settings.max_running)]

@@ -13,7 +13,9 @@ import contextlib
 import logging
 import os
 import queue as queue_module
+import signal
 import threading
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +44,10 @@ class MissionActor:
         self.updates: queue_module.Queue[Addressed] = queue_module.Queue()
         self.cancel_flag = threading.Event()
         self.thread: threading.Thread | None = None
+
+    def ready(self) -> int:
+        """Answers once the actor has started (and imported the mission code): its pid."""
+        return os.getpid()
 
     def begin(self, job: Job) -> int:
         """Start a mission in a thread; the actor's pid."""
@@ -79,6 +85,31 @@ def connect(settings: Settings) -> None:
 
     if ray.is_initialized():
         return
+    # ray.init replaces SIGTERM's handler with one that exits at once: keep the server's
+    # (uvicorn's graceful shutdown, which stops the pool and ends running missions).
+    with restored(signal.SIGTERM):
+        init(settings)
+    log.info("missions run on Ray (%s)", settings.ray_address or "a local instance")
+
+
+@contextlib.contextmanager
+def restored(signum: int) -> Iterator[None]:
+    """Put a signal's handler back as it was after the block (on the main thread only)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.getsignal(signum)
+    try:
+        yield
+    finally:
+        if previous is not None:  # None: set outside Python, cannot be put back
+            signal.signal(signum, previous)
+
+
+def init(settings: Settings) -> None:
+    """``ray.init`` for the settings: the cluster, with this project's code, or a local one."""
+    import ray
+
     if settings.ray_address:
         # The code goes with the job; third-party packages must be installed on the nodes.
         root = Path(__file__).resolve().parents[2]
@@ -94,18 +125,30 @@ def connect(settings: Settings) -> None:
             include_dashboard=False,
             log_to_driver=False,
         )
-    log.info("missions run on Ray (%s)", settings.ray_address or "a local instance")
+
+
+def make_ray_workers(settings: Settings, library: Library) -> list[RayWorker]:
+    """The pool's actors, once they have all started (a mission then starts at once)."""
+    import ray
+
+    library_ref = ray.put(library)  # in the object store once, not per actor or mission
+    workers = [RayWorker(i, library_ref, settings) for i in range(settings.max_running)]
+    try:
+        ray.get([w.actor.ready.remote() for w in workers], timeout=CALL_SECONDS)
+    except ray.exceptions.GetTimeoutError:  # e.g. a cluster still scaling up: missions wait
+        log.warning("Ray actors not all started after %g s; missions wait for them", CALL_SECONDS)
+    return workers
 
 
 class RayWorker:
     """One slot of the pool as a Ray actor (``app.service.pool.Worker``)."""
 
-    def __init__(self, index: int, library: Library, settings: Settings) -> None:
+    def __init__(self, index: int, library_ref: Any, settings: Settings) -> None:
         import ray
 
         self.ray = ray
         self.index, self.settings = index, settings
-        self.library_ref = ray.put(library)  # in the object store once, not per mission
+        self.library_ref = library_ref  # the library in Ray's object store
         self.remote: Any = ray.remote(MissionActor)
         self.lost = False
         self.pending: Any = None  # an unanswered poll: its messages must not be lost

@@ -108,6 +108,8 @@ class Supervisor:
         await loop.run_in_executor(None, self.pool.shutdown, True)
         for worker in self.workers:
             await loop.run_in_executor(None, worker.stop)
+        self.workers = []  # their channels are freed now, not reported leaked at exit
+        self.idle = None
 
     def _keep(self, task: asyncio.Task[Any]) -> None:
         self.tasks.add(task)  # a held reference: an unreferenced task can vanish
@@ -151,13 +153,14 @@ class Supervisor:
             self._keep(asyncio.create_task(self._run(mission_id, worker)))
 
     async def _run(self, mission_id: str, worker: Worker) -> None:
-        assert self.idle is not None and self.loop is not None
+        assert self.loop is not None
         try:
             await self.loop.run_in_executor(self.pool, self._work, mission_id, worker)
         except Exception:  # the mission itself already recorded the failure
             log.exception("mission %s: its thread crashed", mission_id)
         finally:
-            self.idle.put_nowait(worker)
+            if self.idle is not None:  # None once the service stopped
+                self.idle.put_nowait(worker)
 
     def cancel(self, mission_id: str) -> bool:
         """Ask a mission to stop: queued ones end now, running ones within a second (a worker
@@ -166,10 +169,12 @@ class Supervisor:
             row = self.store.get_mission(mission_id)
             if row is None or row.status in TERMINAL:
                 return False
-            worker = self.assigned.get(mission_id)
-            if worker is not None:
+            started = mission_id in self.running
+            if started:
                 self.cancel_asked.setdefault(mission_id, time.monotonic())
-                worker.cancel()
+                worker = self.assigned.get(mission_id)
+                if worker is not None:  # else _work passes it on when the worker has begun
+                    worker.cancel()
                 ended = False
             else:
                 ended = self.store.transition(
@@ -177,7 +182,7 @@ class Supervisor:
                 )
                 self.known.discard(mission_id)  # its queue entry is skipped when it comes up
                 self.metrics.queued.set(len(self.known))
-        if worker is not None:
+        if started:
             reason = "cancel requested"
             if self.store.transition(mission_id, MissionStatus.CANCELLING, reason):
                 self.relay.publish(
@@ -224,11 +229,15 @@ class Supervisor:
             if row is None or row.status != "queued" or mission_id in self.running:
                 return  # cancelled while it waited (or queued twice)
             self.running.add(mission_id)
-            self.assigned[mission_id] = worker
         self.metrics.running.inc()
         try:
-            with self.lock:  # a cancel can only reach the worker once it runs this mission
-                worker.begin(Job(mission_id, row.request, self.settings.wall_limit))
+            # Not under the lock (a Ray actor may still be starting): a cancel meanwhile is
+            # remembered in cancel_asked and passed on once the worker runs this mission.
+            worker.begin(Job(mission_id, row.request, self.settings.wall_limit))
+            with self.lock:
+                self.assigned[mission_id] = worker
+                if mission_id in self.cancel_asked:
+                    worker.cancel()
             self._execute(mission_id, worker)
         except Exception as exc:  # never leave a mission active: fail it with the reason
             log.exception("mission %s failed unexpectedly", mission_id)
