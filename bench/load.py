@@ -10,7 +10,7 @@ identical: status, reason, goals reached, model time, collisions, replans, final
 Bounded: each round stops by itself (a timeout); only 127.0.0.1 is contacted; the burner is
 stopped at the end.
 
-    python -m bench.load [--missions 20] [--executor local|ray|both] [--no-burner]
+    python -m bench.load [--missions 20] [--executor local|ray|both] [--pool N] [--no-burner]
 """
 
 from __future__ import annotations
@@ -33,6 +33,7 @@ import numpy as np
 import websockets
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from app.settings import cores
 from tests.service.test_server import start_server
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -58,17 +59,28 @@ def burner(on: bool) -> Iterator[None]:
         proc.wait(timeout=10)
 
 
-async def client(base: str, mission_id: str) -> dict[str, float]:
-    """Follow a mission's websocket to its end frame."""
+def shows_running(frame: dict[str, Any]) -> bool:
+    """Whether a frame says the mission runs (or ran): it left the queue."""
+    if frame["type"] == "snapshot":
+        return bool(frame["mission"]["status"] != "queued")
+    return frame["type"] != "event" or frame.get("kind") != "status" or frame["status"] != "queued"
+
+
+async def client(base: str, mission_id: str, posted: float) -> dict[str, float]:
+    """Follow a mission's websocket to its end frame; seconds from its POST to the first frame
+    that shows it running."""
     url = base.replace("http", "ws") + f"/missions/{mission_id}/ws"
-    frames, ended = 0, 0.0
+    frames, ended, running = 0, 0.0, float("nan")
     async with websockets.connect(url, max_size=2**22, open_timeout=60) as ws:
         async for raw in ws:
             frames += 1
-            if json.loads(raw)["type"] == "end":
+            frame = json.loads(raw)
+            if running != running and shows_running(frame):  # the first one (nan != nan)
+                running = time.perf_counter() - posted
+            if frame["type"] == "end":
                 ended = 1.0
                 break
-    return {"frames": frames, "ended": ended}
+    return {"frames": frames, "ended": ended, "running": running}
 
 
 async def getter(
@@ -105,11 +117,12 @@ def seconds(mission: dict[str, Any], status: str) -> float | None:
     return (datetime.fromisoformat(at[0]) - created).total_seconds()
 
 
-async def timed_post(http: httpx.AsyncClient, body: dict[str, Any]) -> tuple[float, str]:
+async def timed_post(http: httpx.AsyncClient, body: dict[str, Any]) -> tuple[float, str, float]:
+    """(milliseconds, mission id, when it was sent)."""
     t0 = time.perf_counter()
     r = await http.post("/missions", json=body)
     assert r.status_code == 201, r.text
-    return (time.perf_counter() - t0) * 1e3, r.json()["id"]
+    return (time.perf_counter() - t0) * 1e3, r.json()["id"], t0
 
 
 async def load_round(base: str, n: int) -> dict[str, Any]:
@@ -117,8 +130,8 @@ async def load_round(base: str, n: int) -> dict[str, Any]:
     async with httpx.AsyncClient(base_url=base, timeout=60) as http:
         t0 = time.perf_counter()
         posted = await asyncio.gather(*(timed_post(http, {**MISSION, "seed": k}) for k in range(n)))
-        burst = [ms for ms, _ in posted]
-        ids = [mission_id for _, mission_id in posted]
+        burst = [ms for ms, _, _ in posted]
+        ids = [mission_id for _, mission_id, _ in posted]
         stop = asyncio.Event()
         gets: list[float] = []
         posts: list[float] = []
@@ -127,7 +140,7 @@ async def load_round(base: str, n: int) -> dict[str, Any]:
             asyncio.create_task(poster(http, stop, posts)),
         ]
         results = await asyncio.wait_for(
-            asyncio.gather(*(client(base, i) for i in ids)), ROUND_TIMEOUT
+            asyncio.gather(*(client(base, i, at) for _, i, at in posted)), ROUND_TIMEOUT
         )
         wall = time.perf_counter() - t0
         stop.set()
@@ -150,6 +163,8 @@ async def load_round(base: str, n: int) -> dict[str, Any]:
         "start_p50": float(np.median([s for s in started if s is not None])),
         "start_max": max(s for s in started if s is not None),
         "executing_first": min(s for s in executing if s is not None),
+        "frame_first": float(np.nanmin([r["running"] for r in results])),
+        "frame_p50": float(np.nanmedian([r["running"] for r in results])),
         "missions": missions,
     }
 
@@ -169,10 +184,13 @@ def outcome(mission: dict[str, Any]) -> tuple[Any, ...]:
     )
 
 
-def run(executor: str, n: int, load: bool) -> dict[str, Any]:
+def run(executor: str, n: int, load: bool, pool: int | None) -> dict[str, Any]:
+    env = {"SCREWSNAKE_EXECUTOR": executor}
+    if pool is not None:
+        env["SCREWSNAKE_MAX_RUNNING"] = str(pool)
     with tempfile.TemporaryDirectory() as tmp, burner(load):
         t0 = time.perf_counter()
-        proc, base = start_server(Path(tmp) / "load.db", SCREWSNAKE_EXECUTOR=executor)
+        proc, base = start_server(Path(tmp) / "load.db", **env)
         ready = time.perf_counter() - t0
         try:
             workers = httpx.get(f"{base}/readyz", timeout=10).status_code
@@ -186,9 +204,11 @@ def run(executor: str, n: int, load: bool) -> dict[str, Any]:
 
 
 def report(executor: str, n: int, r: dict[str, Any]) -> None:
+    """Print one run's figures."""
     ok = sum(m["status"] == "succeeded" for m in r["missions"])
     verdict = "ok" if max(r["get_p99"], r["post_p99"]) <= 100 and r["ended"] == n else "MISSED"
-    print(f"\nexecutor={executor}: server ready in {r['ready']:.1f} s (pool started)")
+    size = r["pool"] or f"{cores()} (the cores)"
+    print(f"\nexecutor={executor}, pool of {size}: server ready in {r['ready']:.1f} s (pool warm)")
     print(
         f"  {n} missions posted at once: POST p99 {r['burst_p99']:.0f} ms (burst, queued at once)"
     )
@@ -196,6 +216,10 @@ def report(executor: str, n: int, r: dict[str, Any]) -> None:
         f"  start latency (POST -> planning): first {r['start_first'] * 1e3:.0f} ms,"
         f" median {r['start_p50']:.2f} s, last {r['start_max']:.2f} s;"
         f" first executing {r['executing_first'] * 1e3:.0f} ms"
+    )
+    print(
+        f"  POST -> first frame showing it running (client side): first"
+        f" {r['frame_first'] * 1e3:.0f} ms, median {r['frame_p50']:.2f} s"
     )
     print(
         f"  GET /plan      p50 {r['get_p50']:6.1f} ms  p99 {r['get_p99']:6.1f} ms  ({r['gets']} requests)"
@@ -230,6 +254,9 @@ def main() -> None:
     parser.add_argument("--missions", type=int, default=20)
     parser.add_argument("--executor", choices=("local", "ray", "both"), default="local")
     parser.add_argument("--no-burner", action="store_true", help="leave the other core idle")
+    parser.add_argument(
+        "--pool", type=int, default=None, help="SCREWSNAKE_MAX_RUNNING (default: the cores)"
+    )
     args = parser.parse_args()
     n = args.missions
     print(
@@ -240,7 +267,7 @@ def main() -> None:
     executors = ("local", "ray") if args.executor == "both" else (args.executor,)
     results = {}
     for executor in executors:
-        results[executor] = run(executor, n, not args.no_burner)
+        results[executor] = run(executor, n, not args.no_burner, args.pool) | {"pool": args.pool}
         report(executor, n, results[executor])
     if len(results) == 2:
         compare(n, results["local"], results["ray"])

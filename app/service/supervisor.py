@@ -233,7 +233,13 @@ class Supervisor:
         try:
             # Not under the lock (a Ray actor may still be starting): a cancel meanwhile is
             # remembered in cancel_asked and passed on once the worker runs this mission.
-            worker.begin(Job(mission_id, row.request, self.settings.wall_limit))
+            job = Job(mission_id, row.request, self.settings.wall_limit)
+            try:
+                worker.begin(job)
+            except WorkerLost:  # it died while idle (e.g. a lost Ray node): once more, afresh
+                log.warning("mission %s: its worker was gone; replaced", mission_id)
+                worker.restart()
+                worker.begin(job)
             with self.lock:
                 self.assigned[mission_id] = worker
                 if mission_id in self.cancel_asked:

@@ -4,6 +4,8 @@ a seeded mission ends exactly as on the local pool, frames reach the websocket, 
 from __future__ import annotations
 
 import json
+import os
+import signal
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -68,3 +70,17 @@ def test_cancel_stops_a_mission_running_on_ray(tmp_path: Path) -> None:
         m = wait_status(c, mission_id, TERMINAL, timeout=10)
         assert (m["status"], m["reason"]) == ("cancelled", "cancelled by request")
         assert seconds_between(m, "cancelling", "cancelled") <= 1.0
+
+
+def test_a_lost_ray_actor_is_replaced_and_its_mission_fails_with_the_reason(
+    tmp_path: Path,
+) -> None:
+    with app_client(tmp_path, max_running=1, executor="ray") as c:
+        mission_id = c.post("/missions", json=SLOW).json()["id"]
+        pid = worker_pid(wait_status(c, mission_id, ("executing",), timeout=120))
+        os.kill(pid, signal.SIGKILL)
+        m = wait_status(c, mission_id, TERMINAL, timeout=60)
+        assert m["status"] == "failed" and m["reason"].startswith("Ray actor lost"), m["reason"]
+        after = wait_status(c, c.post("/missions", json=EXAMPLE).json()["id"], TERMINAL, 120)
+        assert after["status"] == "succeeded", after["reason"]
+        assert worker_pid(after) != pid
