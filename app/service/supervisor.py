@@ -253,7 +253,7 @@ class Supervisor:
                 reason = "database error: the mission's progress could not be saved"
             else:
                 reason = f"server error ({type(exc).__name__})"
-            worker.restart()  # nobody reads that mission's messages any more: stop it
+            self._replace(worker)  # nobody reads that mission's messages any more: stop it
             with contextlib.suppress(Exception):  # the database may still be down: reconciled
                 self.relay.end(mission_id, MissionStatus.FAILED, reason, None)
         finally:
@@ -273,18 +273,25 @@ class Supervisor:
             stop = self._overdue(mission_id, started, wall_limit)
             if stop is not None:
                 self.relay.end(mission_id, *stop, None)
-                worker.restart()
+                self._replace(worker)
                 return
             poll = CANCEL_POLL_SECONDS if mission_id in self.cancel_asked else POLL_SECONDS
             try:
                 batch = worker.messages(poll)
             except WorkerLost as exc:
                 self.relay.end(mission_id, MissionStatus.FAILED, str(exc), None)
-                worker.restart()
+                self._replace(worker)
                 return
             for message in batch:
                 if self.relay.handle(mission_id, message):
                     return
+
+    def _replace(self, worker: Worker) -> None:
+        """Kill a worker that must not go on and start a fresh one (none while stopping)."""
+        if self.shutting_down.is_set():
+            worker.stop()
+        else:
+            worker.restart()
 
     def _overdue(
         self, mission_id: str, started: float, wall_limit: float
