@@ -34,9 +34,8 @@ class Settings(BaseModel):
     api_key: str | None = None  # bearer token required (see `auth`) when set
     auth: Literal["writes", "all"] = "writes"  # what the API key guards: writes, or everything
     allowed_origins: list[str] = []  # browser origins allowed (CORS, websocket); same-origin always
-    max_running: int = Field(
-        default_factory=lambda: cores(), ge=1, le=256
-    )  # worker processes (or Ray actors) in the warm pool = missions executing at once; the rest queue
+    # Worker processes (or Ray actors) in the warm pool = missions executing at once; more queue.
+    max_running: int = Field(default_factory=lambda: min(cores(), 256), ge=1, le=256)
     worker_nice: int = Field(
         10, ge=0, le=19
     )  # niceness of mission workers: the API keeps priority over mission CPU (0: same priority)
