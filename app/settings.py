@@ -16,6 +16,14 @@ def default_data_dir() -> Path:
     return Path(base) / "screwsnake"
 
 
+def cores() -> int:
+    """The CPU cores this process may use (at least 1)."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not Linux
+        return max(1, os.cpu_count() or 1)
+
+
 class Settings(BaseModel):
     data_dir: Path = Field(default_factory=default_data_dir)  # SCREWSNAKE_DATA_DIR
     database_url: str | None = None  # None: SQLite at data_dir/screwsnake.db
@@ -26,7 +34,13 @@ class Settings(BaseModel):
     api_key: str | None = None  # bearer token required (see `auth`) when set
     auth: Literal["writes", "all"] = "writes"  # what the API key guards: writes, or everything
     allowed_origins: list[str] = []  # browser origins allowed (CORS, websocket); same-origin always
-    max_running: int = Field(4, ge=1, le=256)  # missions executing at once; the rest queue
+    # Worker processes (or Ray actors) in the warm pool = missions executing at once; more queue.
+    max_running: int = Field(default_factory=lambda: min(cores(), 256), ge=1, le=256)
+    worker_nice: int = Field(
+        10, ge=0, le=19
+    )  # niceness of mission workers: the API keeps priority over mission CPU (0: same priority)
+    executor: Literal["local", "ray"] = "local"  # where missions run: local processes or Ray
+    ray_address: str | None = None  # a Ray cluster (e.g. ray://head:10001); None: a local Ray
     max_queued: int = Field(1000, ge=0, le=1_000_000)  # waiting missions before POST answers 503
     max_body: int = Field(1_000_000, ge=1024, le=1_000_000_000)  # request body bytes (else 413)
     wall_limit: float = Field(3600.0, gt=0, le=7 * 86400)  # wall-clock seconds per mission

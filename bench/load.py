@@ -1,120 +1,276 @@
-"""Load: N missions posted at once (as fast as possible), a websocket client each, and a stream
-of GET requests, against a real uvicorn server on loopback (DESIGN §8: at 20 missions and 20
-clients, every client gets its terminal frame and API p99 <= 100 ms).
+"""Load: a burst of N missions (20) posted at once, a websocket client each, and a stream of
+GET /plan and POST /missions requests, against a real uvicorn server on loopback, while a CPU
+burner process loads another core (DESIGN §8, issue 15: API p99 <= 100 ms, every client gets
+every mission's ``end`` frame; mission start latency after the burst).
 
-Bounded: each round stops by itself (a timeout per round); only 127.0.0.1 is contacted.
+``--executor local|ray|both``: the warm local pool, Ray actors on a local Ray instance, or both
+one after the other, with the outcomes of the same seeded missions side by side (they must be
+identical: status, reason, goals reached, model time, collisions, replans, final pose).
+
+Bounded: each round stops by itself (a timeout); only 127.0.0.1 is contacted; the burner is
+stopped at the end.
+
+    python -m bench.load [--missions 20] [--executor local|ray|both] [--pool N] [--no-burner]
 """
 
 from __future__ import annotations
 
+import argparse
 import asyncio
+import contextlib
 import json
-import re
+import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Iterator
+from datetime import datetime
 from pathlib import Path
+from typing import Any
 
 import httpx
 import numpy as np
 import websockets
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+from app.settings import cores
 from tests.service.test_server import start_server
 
-MISSION = json.loads(
-    (Path(__file__).resolve().parents[1] / "examples" / "fig9b-obstacles.json").read_text()
-)
-ROUND_TIMEOUT = 300.0
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+MISSION = json.loads((EXAMPLES / "fig9b-obstacles.json").read_text())
+ROUND_TIMEOUT = 600.0
+TERMINAL = ("succeeded", "failed", "cancelled")
+POST_EVERY = 0.25  # seconds between the steady POSTs (each cancelled at once: no extra load)
+GET_EVERY = 0.01  # seconds between GET /plan requests
+BURNER = "while True: pass"  # the other core's load: a busy Python loop
 
 
-async def client(base: str, mission_id: str) -> dict[str, float]:
+@contextlib.contextmanager
+def burner(on: bool) -> Iterator[None]:
+    """A process spinning a core at full priority for as long as the block runs."""
+    if not on:
+        yield
+        return
+    proc = subprocess.Popen([sys.executable, "-c", BURNER])
+    try:
+        yield
+    finally:
+        proc.kill()
+        proc.wait(timeout=10)
+
+
+def shows_running(frame: dict[str, Any]) -> bool:
+    """Whether a frame says the mission runs (or ran): it left the queue."""
+    if frame["type"] == "snapshot":
+        return bool(frame["mission"]["status"] != "queued")
+    return frame["type"] != "event" or frame.get("kind") != "status" or frame["status"] != "queued"
+
+
+async def client(base: str, mission_id: str, posted: float) -> dict[str, float]:
+    """Follow a mission's websocket to its end frame; seconds from its POST to the first frame
+    that shows it running."""
     url = base.replace("http", "ws") + f"/missions/{mission_id}/ws"
-    frames, ended, model_time = 0, 0.0, 0.0
-    async with websockets.connect(url, max_size=2**22, open_timeout=30) as ws:
+    frames, ended, running = 0, 0.0, float("nan")
+    async with websockets.connect(url, max_size=2**22, open_timeout=60) as ws:
         async for raw in ws:
-            frame = json.loads(raw)
             frames += 1
-            if frame["type"] == "state":
-                model_time = frame["t"]
+            frame = json.loads(raw)
+            if running != running and shows_running(frame):  # the first one (nan != nan)
+                running = time.perf_counter() - posted
             if frame["type"] == "end":
                 ended = 1.0
                 break
-    return {"frames": frames, "ended": ended, "model_time": model_time}
+    return {"frames": frames, "ended": ended, "running": running}
 
 
 async def getter(
     http: httpx.AsyncClient, ids: list[str], stop: asyncio.Event, latencies: list[float]
 ) -> None:
+    """GET /plan?mission=... for each mission in turn (404 before its first plan counts too)."""
     i = 0
     while not stop.is_set():
-        path = f"/missions/{ids[i % len(ids)]}" if i % 2 else "/missions?limit=10"
         t0 = time.perf_counter()
-        r = await http.get(path)
+        r = await http.get("/plan", params={"mission": ids[i % len(ids)]})
         latencies.append((time.perf_counter() - t0) * 1e3)
-        assert r.status_code == 200
+        assert r.status_code in (200, 404), r.text
         i += 1
-        await asyncio.sleep(0.01)
+        await asyncio.sleep(GET_EVERY)
 
 
-async def round_of(base: str, n: int) -> dict[str, float]:
-    async with httpx.AsyncClient(base_url=base, timeout=30) as http:
+async def poster(http: httpx.AsyncClient, stop: asyncio.Event, latencies: list[float]) -> None:
+    """A steady trickle of POST /missions while the burst runs; each is cancelled at once."""
+    while not stop.is_set():
         t0 = time.perf_counter()
-        posted = await asyncio.gather(
-            *(http.post("/missions", json={**MISSION, "seed": k}) for k in range(n))
-        )
-        ids = [r.json()["id"] for r in posted]
-        stop, latencies = asyncio.Event(), []
-        get_task = asyncio.create_task(getter(http, ids, stop, latencies))
+        r = await http.post("/missions", json={**MISSION, "name": "trickle"})
+        latencies.append((time.perf_counter() - t0) * 1e3)
+        assert r.status_code == 201, r.text
+        await http.post(f"/missions/{r.json()['id']}/cancel")
+        await asyncio.sleep(POST_EVERY)
+
+
+def seconds(mission: dict[str, Any], status: str) -> float | None:
+    """Wall seconds from the mission's creation to its first ``status`` transition."""
+    at = [t["at"] for t in mission["transitions"] if t["status"] == status]
+    if not at:
+        return None
+    created = datetime.fromisoformat(mission["created_at"])
+    return (datetime.fromisoformat(at[0]) - created).total_seconds()
+
+
+async def timed_post(http: httpx.AsyncClient, body: dict[str, Any]) -> tuple[float, str, float]:
+    """(milliseconds, mission id, when it was sent)."""
+    t0 = time.perf_counter()
+    r = await http.post("/missions", json=body)
+    assert r.status_code == 201, r.text
+    return (time.perf_counter() - t0) * 1e3, r.json()["id"], t0
+
+
+async def load_round(base: str, n: int) -> dict[str, Any]:
+    """The burst, the clients and the request streams; the figures and the missions."""
+    async with httpx.AsyncClient(base_url=base, timeout=60) as http:
+        t0 = time.perf_counter()
+        posted = await asyncio.gather(*(timed_post(http, {**MISSION, "seed": k}) for k in range(n)))
+        burst = [ms for ms, _, _ in posted]
+        ids = [mission_id for _, mission_id, _ in posted]
+        stop = asyncio.Event()
+        gets: list[float] = []
+        posts: list[float] = []
+        streams = [
+            asyncio.create_task(getter(http, ids, stop, gets)),
+            asyncio.create_task(poster(http, stop, posts)),
+        ]
         results = await asyncio.wait_for(
-            asyncio.gather(*(client(base, i) for i in ids)), ROUND_TIMEOUT
+            asyncio.gather(*(client(base, i, at) for _, i, at in posted)), ROUND_TIMEOUT
         )
         wall = time.perf_counter() - t0
         stop.set()
-        await get_task
+        await asyncio.gather(*streams)
         missions = [(await http.get(f"/missions/{i}")).json() for i in ids]
-        metrics = (await http.get("/metrics")).text
-    dropped = float(re.search(r"^screwsnake_ws_frames_dropped_total (\S+)", metrics, re.M).group(1))
+    started = [seconds(m, "planning") for m in missions]
+    executing = [seconds(m, "executing") for m in missions]
     return {
-        "n": n,
         "wall": wall,
-        "throughput": n / wall,
-        "ratio": sum(m["model_time"] for m in missions) / wall,
-        "p50": float(np.percentile(latencies, 50)),
-        "p99": float(np.percentile(latencies, 99)),
-        "requests": len(latencies),
-        "frames": sum(r["frames"] for r in results),
-        "dropped": dropped,
-        "ended": sum(r["ended"] for r in results),
-        "succeeded": sum(m["status"] == "succeeded" for m in missions),
+        "burst_p99": float(np.percentile(burst, 99)),
+        "get_p50": float(np.percentile(gets, 50)),
+        "get_p99": float(np.percentile(gets, 99)),
+        "gets": len(gets),
+        "post_p50": float(np.percentile(posts, 50)),
+        "post_p99": float(np.percentile(posts, 99)),
+        "posts": len(posts),
+        "ended": int(sum(r["ended"] for r in results)),
+        "frames": int(sum(r["frames"] for r in results)),
+        "start_first": min(s for s in started if s is not None),
+        "start_p50": float(np.median([s for s in started if s is not None])),
+        "start_max": max(s for s in started if s is not None),
+        "executing_first": min(s for s in executing if s is not None),
+        "frame_first": float(np.nanmin([r["running"] for r in results])),
+        "frame_p50": float(np.nanmedian([r["running"] for r in results])),
+        "missions": missions,
     }
 
 
-def main() -> None:
-    print(
-        "fig9b-obstacles missions at speed 0 (as fast as possible), one websocket client each, GETs every 10 ms"
+def outcome(mission: dict[str, Any]) -> tuple[Any, ...]:
+    """What must not depend on where a seeded mission ran."""
+    goals = tuple((g["reached"], g["error"]) for g in mission["goals"])
+    pose = tuple(sorted(mission["pose"].items(), key=lambda kv: kv[0]))
+    return (
+        mission["status"],
+        mission["reason"],
+        goals,
+        mission["model_time"],
+        mission["collisions"],
+        mission["replans"],
+        str(pose),
     )
-    for running in (4, 20):
-        print(f"\nserver: SCREWSNAKE_MAX_RUNNING={running} (the rest queue)")
+
+
+def run(executor: str, n: int, load: bool, pool: int | None) -> dict[str, Any]:
+    env = {"SCREWSNAKE_EXECUTOR": executor}
+    if pool is not None:
+        env["SCREWSNAKE_MAX_RUNNING"] = str(pool)
+    with tempfile.TemporaryDirectory() as tmp, burner(load):
+        t0 = time.perf_counter()
+        proc, base = start_server(Path(tmp) / "load.db", **env)
+        ready = time.perf_counter() - t0
+        try:
+            workers = httpx.get(f"{base}/readyz", timeout=10).status_code
+            assert workers == 200
+            result = asyncio.run(load_round(base, n))
+        finally:
+            proc.terminate()
+            proc.wait(timeout=60)
+    result["ready"] = ready
+    return result
+
+
+def report(executor: str, n: int, r: dict[str, Any]) -> None:
+    """Print one run's figures."""
+    ok = sum(m["status"] == "succeeded" for m in r["missions"])
+    verdict = "ok" if max(r["get_p99"], r["post_p99"]) <= 100 and r["ended"] == n else "MISSED"
+    size = r["pool"] or f"{cores()} (the cores)"
+    print(f"\nexecutor={executor}, pool of {size}: server ready in {r['ready']:.1f} s (pool warm)")
+    print(
+        f"  {n} missions posted at once: POST p99 {r['burst_p99']:.0f} ms (burst, queued at once)"
+    )
+    print(
+        f"  start latency (POST -> planning): first {r['start_first'] * 1e3:.0f} ms,"
+        f" median {r['start_p50']:.2f} s, last {r['start_max']:.2f} s;"
+        f" first executing {r['executing_first'] * 1e3:.0f} ms"
+    )
+    print(
+        f"  POST -> first frame showing it running (client side): first"
+        f" {r['frame_first'] * 1e3:.0f} ms, median {r['frame_p50']:.2f} s"
+    )
+    print(
+        f"  GET /plan      p50 {r['get_p50']:6.1f} ms  p99 {r['get_p99']:6.1f} ms  ({r['gets']} requests)"
+    )
+    print(
+        f"  POST /missions p50 {r['post_p50']:6.1f} ms  p99 {r['post_p99']:6.1f} ms  ({r['posts']} requests)"
+    )
+    print(
+        f"  end frames {r['ended']}/{n}, frames {r['frames']}, succeeded {ok}/{n},"
+        f" wall {r['wall']:.1f} s, {n / r['wall']:.2f} missions/s"
+        f"  [target p99 <= 100 ms, every end frame: {verdict}]"
+    )
+
+
+def compare(n: int, local: dict[str, Any], ray: dict[str, Any]) -> None:
+    print(f"\nthe same {n} seeded missions, local pool vs Ray:")
+    print(f"{'seed':>5}{'status':>11}{'reached':>9}{'model t [s]':>13}{'collisions':>12}  same")
+    same = 0
+    for seed, (a, b) in enumerate(zip(local["missions"], ray["missions"], strict=True)):
+        equal = outcome(a) == outcome(b)
+        same += equal
+        reached = sum(g["reached"] for g in a["goals"])
         print(
-            f"{'N':>4}{'wall [s]':>10}{'missions/s':>12}{'model/wall':>12}{'API p50 [ms]':>14}{'p99 [ms]':>10}"
-            f"{'GETs':>7}{'frames':>8}{'dropped':>9}{'end frames':>12}{'succeeded':>11}"
+            f"{seed:>5}{a['status']:>11}{reached:>6}/{len(a['goals'])}{a['model_time']:>13.2f}"
+            f"{a['collisions']:>12}  {'yes' if equal else 'NO: ' + str(outcome(b))}"
         )
-        with tempfile.TemporaryDirectory() as tmp:
-            proc, base = start_server(Path(tmp) / "load.db", SCREWSNAKE_MAX_RUNNING=str(running))
-            try:
-                previous_dropped = 0.0
-                for n in (1, 5, 20, 50):
-                    r = asyncio.run(round_of(base, n))
-                    dropped, previous_dropped = r["dropped"] - previous_dropped, r["dropped"]
-                    print(
-                        f"{n:>4}{r['wall']:>10.2f}{r['throughput']:>12.2f}{r['ratio']:>11.0f}x{r['p50']:>14.1f}{r['p99']:>10.1f}"
-                        f"{r['requests']:>7.0f}{r['frames']:>8.0f}{dropped:>9.0f}{r['ended']:>7.0f}/{n:<4}{r['succeeded']:>8.0f}/{n}",
-                        flush=True,
-                    )
-            finally:
-                proc.terminate()
-                proc.wait(timeout=30)
+    print(f"identical outcomes: {same}/{n}")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--missions", type=int, default=20)
+    parser.add_argument("--executor", choices=("local", "ray", "both"), default="local")
+    parser.add_argument("--no-burner", action="store_true", help="leave the other core idle")
+    parser.add_argument(
+        "--pool", type=int, default=None, help="SCREWSNAKE_MAX_RUNNING (default: the cores)"
+    )
+    args = parser.parse_args()
+    n = args.missions
+    print(
+        f"{n} x fig9b-obstacles (seeds 0..{n - 1}) at speed 0, one websocket client each,"
+        f" GET /plan every {GET_EVERY * 1e3:.0f} ms, a POST every {POST_EVERY:g} s;"
+        f" {'a CPU burner on the other core' if not args.no_burner else 'no burner'}"
+    )
+    executors = ("local", "ray") if args.executor == "both" else (args.executor,)
+    results = {}
+    for executor in executors:
+        results[executor] = run(executor, n, not args.no_burner, args.pool) | {"pool": args.pool}
+        report(executor, n, results[executor])
+    if len(results) == 2:
+        compare(n, results["local"], results["ray"])
 
 
 if __name__ == "__main__":

@@ -1,7 +1,8 @@
 """Typed messages between a mission's worker process, the supervisor and the websocket hub.
 
 Worker -> supervisor: what happened (stored, then broadcast, in order). Supervisor -> worker:
-live updates of a running mission. All are frozen dataclasses: picklable across processes.
+the next mission to run (a pool worker runs missions one after another) and live updates of the
+running one. All are frozen dataclasses: picklable across processes and to Ray actors.
 """
 
 from __future__ import annotations
@@ -110,3 +111,21 @@ class Resume:
 
 
 Update = AddGoal | RemoveGoal | AddObstacle | Pause | Resume
+
+
+@dataclass(frozen=True)
+class Job:
+    """Run this mission next (a pool worker's inbox); the worker answers with its messages."""
+
+    mission_id: str
+    request: dict[str, Any]
+    wall_limit: float
+
+
+@dataclass(frozen=True)
+class Addressed:
+    """A live update for one mission: a worker drops updates meant for a mission it no longer
+    runs (one sent just as that mission ended must not reach the next)."""
+
+    mission_id: str
+    update: Update

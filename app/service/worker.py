@@ -1,8 +1,11 @@
-"""The mission worker process: runs one mission and reports everything as messages.
+"""The mission worker: runs missions one after another and reports everything as messages.
 
 Missions are CPU work (numpy, planning, the behaviour tree); in threads they would share the
-GIL with the API and slow every request. So each runs in its own process, and the supervisor's
-thread in the server turns the messages into store writes and websocket frames, in order.
+GIL with the API and slow every request. So they run in worker processes (a warm pool started
+with the service, ``app.service.pool``) or Ray actors (``app.service.ray_pool``), and the
+supervisor's thread in the server turns the messages into store writes and websocket frames,
+in order. The channels are duck-typed: multiprocessing queues and events in a pool process,
+``queue.Queue`` and ``threading.Event`` inside a Ray actor.
 """
 
 from __future__ import annotations
@@ -10,11 +13,12 @@ from __future__ import annotations
 import contextlib
 import os
 import queue as queue_module
+import socket
 import threading
 import time
-from multiprocessing.queues import Queue
-from multiprocessing.synchronize import Event
-from typing import Any
+from typing import Any, Protocol
+
+import py_trees
 
 from app.executor.runner import MissionError, MissionRunner, UpdateRefused
 from app.missions.spec import MissionSpec
@@ -22,7 +26,9 @@ from app.missions.status import MissionStatus
 from app.service.messages import (
     AddGoal,
     AddObstacle,
+    Addressed,
     Ended,
+    Job,
     Pause,
     PlanMade,
     Publish,
@@ -38,7 +44,62 @@ from app.service.messages import (
 from primitives.library import Library
 from sim.obstacles import obstacle_from_dict
 
-WORKER_NICENESS = 10
+
+class Outbox(Protocol):
+    """Where a worker's messages go (a multiprocessing or a thread queue)."""
+
+    def put(self, item: WorkerMessage) -> None: ...
+
+
+class UpdateInbox(Protocol):
+    """Live updates for the running mission; ``get_nowait`` raises ``queue.Empty``."""
+
+    def get_nowait(self) -> Addressed: ...
+
+
+class JobInbox(Protocol):
+    """The next mission to run; None asks the worker to exit."""
+
+    def get(self) -> Job | None: ...
+
+
+class CancelFlag(Protocol):
+    """A threading or multiprocessing event, set to cancel the running mission."""
+
+    def is_set(self) -> bool: ...
+
+    def wait(self, timeout: float | None = None) -> bool: ...
+
+
+class SharedFlag:
+    """A cancel flag in shared memory, for a pool process. Unlike a multiprocessing Event,
+    setting it never blocks: ``Event.set`` waits until its sleepers wake, so a hung (e.g.
+    stopped) worker would hang whoever cancels its mission."""
+
+    def __init__(self, value: Any) -> None:
+        self.value = value  # a RawValue("b") of the pool's multiprocessing context
+
+    def is_set(self) -> bool:
+        return bool(self.value.value)
+
+    def set(self) -> None:
+        self.value.value = 1
+
+    def clear(self) -> None:
+        self.value.value = 0
+
+    def wait(self, timeout: float | None = None) -> bool:
+        """Sleep until set or ``timeout`` seconds pass; whether it is set."""
+        deadline = time.monotonic() + (float("inf") if timeout is None else timeout)
+        while not self.is_set():
+            left = deadline - time.monotonic()
+            if left <= 0:
+                return False
+            time.sleep(min(left, FLAG_POLL_SECONDS))
+        return True
+
+
+FLAG_POLL_SECONDS = 0.02  # how often a waiting worker looks at its cancel flag
 STATE_SAVE_SECONDS = 1.0  # wall seconds between state writes of a running mission
 PAUSED_POLL_SECONDS = 0.05  # how often a paused mission looks for resume or cancel
 EVENTS_KEPT = 1000  # events kept in a mission's stored state (the newest)
@@ -136,53 +197,76 @@ def watch_server(server_pid: int, period: float = 1.0) -> None:
             os._exit(3)
 
 
-def run_mission_process(
-    mission_id: str,
-    request: dict[str, Any],
+def where() -> str:
+    """This worker, as the ``planning`` transition names it: which process on which host."""
+    return f"worker pid {os.getpid()} on {socket.gethostname()}"
+
+
+def run_mission(
+    job: Job,
     library: Library,
     ws_rate: float,
-    queue: Queue[WorkerMessage],
-    cancel: Event,
-    server_pid: int,
-    wall_limit: float = float("inf"),
-    updates: Queue[Update] | None = None,
+    queue: Outbox,
+    cancel: CancelFlag,
+    updates: UpdateInbox | None = None,
 ) -> None:
-    """The process target: run the mission, report through ``queue``, always end with Ended."""
+    """Run one mission, report through ``queue``, always end with Ended; leave nothing of it
+    behind for the next mission this worker runs."""
+    try:
+        _run(job, library, ws_rate, queue, cancel, updates)
+    except Exception as exc:  # report, never die silently (and never with a server path)
+        queue.put(Ended(MissionStatus.FAILED, f"server error ({type(exc).__name__})"))
+    finally:
+        py_trees.blackboard.Blackboard.clear()  # the behaviour trees' keys and clients
+
+
+def serve_missions(
+    jobs: JobInbox,
+    queue: Outbox,
+    cancel: CancelFlag,
+    updates: UpdateInbox,
+    library: Library,
+    ws_rate: float,
+    server_pid: int,
+    niceness: int = 10,
+) -> None:
+    """A pool process's target: run each job as it comes until None (or the server is gone)."""
     threading.Thread(
         target=watch_server, args=(server_pid,), daemon=True, name="watch-server"
     ).start()
-    with contextlib.suppress(OSError):
-        os.nice(WORKER_NICENESS)  # the API process keeps priority: requests stay fast under load
-    try:
-        _run(mission_id, request, library, ws_rate, queue, cancel, wall_limit, updates)
-    except Exception as exc:  # report, never die silently (and never with a server path)
-        queue.put(Ended(MissionStatus.FAILED, f"server error ({type(exc).__name__})"))
+    if niceness:
+        with contextlib.suppress(OSError):
+            os.nice(niceness)  # the API process keeps priority: requests stay fast under load
+    while (job := jobs.get()) is not None:
+        run_mission(job, library, ws_rate, queue, cancel, updates)
 
 
-def pending(updates: Queue[Update] | None) -> list[Update]:
-    """The live updates the API sent since the last tick (none without a queue)."""
+def pending(updates: UpdateInbox | None, mission_id: str) -> list[Update]:
+    """The live updates for this mission the API sent since the last tick (none without a
+    queue); updates left over for an earlier mission are dropped."""
     out: list[Update] = []
     while updates is not None:
         try:
-            out.append(updates.get_nowait())
+            item = updates.get_nowait()
         except queue_module.Empty:
             break
+        if item.mission_id == mission_id:
+            out.append(item.update)
     return out
 
 
 def _run(
-    mission_id: str,
-    request: dict[str, Any],
+    job: Job,
     library: Library,
     ws_rate: float,
-    queue: Queue[WorkerMessage],
-    cancel: Event,
-    wall_limit: float,
-    updates: Queue[Update] | None,
+    queue: Outbox,
+    cancel: CancelFlag,
+    updates: UpdateInbox | None,
 ) -> None:
     begun = time.perf_counter()  # the wall-clock limit counts planning too
-    spec = MissionSpec.model_validate(request)
-    queue.put(Transition(MissionStatus.PLANNING))
+    mission_id, wall_limit = job.mission_id, job.wall_limit
+    spec = MissionSpec.model_validate(job.request)
+    queue.put(Transition(MissionStatus.PLANNING, where()))
     try:
         runner = MissionRunner(spec, library, mission_id=mission_id.replace("-", ""), cancel=cancel)
     except MissionError as exc:
@@ -194,7 +278,7 @@ def _run(
     paused_since: float | None = None
     period = 1.0 / ws_rate
     while True:
-        for update in pending(updates):
+        for update in pending(updates, mission_id):
             for message in apply_update(runner, update):
                 queue.put(message)
         if runner.paused and paused_since is None:

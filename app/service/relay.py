@@ -1,0 +1,181 @@
+"""The relay: a worker's messages become store writes, then websocket frames, in that order.
+
+Every transition, plan and replan is written before it is broadcast; a mission's end is written
+(with the worker's final state and tree), then its ``end`` frame goes out. Used from the
+supervisor's mission threads: frames reach the hub through the event loop.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import logging
+import threading
+import time
+from datetime import UTC, datetime, timedelta
+from typing import Any
+
+from pydantic import ValidationError
+
+from app.missions.status import MissionStatus
+from app.service.frames import (
+    EndFrame,
+    PlanFrame,
+    ReplanEvent,
+    StateFrame,
+    StatusEvent,
+    parse_frame,
+)
+from app.service.hub import Frame, Hub
+from app.service.messages import (
+    Ended,
+    PlanMade,
+    Publish,
+    Replanned,
+    SaveState,
+    TrajectoryDone,
+    Transition,
+    WorkerMessage,
+)
+from app.service.metrics import Metrics
+from app.settings import Settings
+from app.store.repo import Store
+
+log = logging.getLogger("screwsnake.supervisor")
+PRUNE_SECONDS = 3600.0  # wall seconds between retention sweeps
+
+
+class Relay:
+    """Stores, then broadcasts, what workers report; ends missions."""
+
+    def __init__(self, store: Store, hub: Hub, settings: Settings, metrics: Metrics) -> None:
+        self.store, self.hub, self.settings, self.metrics = store, hub, settings, metrics
+        self.loop: asyncio.AbstractEventLoop | None = None  # set when the service starts
+        self.trees: dict[str, dict[str, Any]] = {}  # running mission -> latest tree snapshot
+        self.shutting_down = threading.Event()
+        self.pruned_at = 0.0  # monotonic time of the last retention sweep
+
+    def publish(self, mission_id: str, frame: Frame) -> None:
+        """Hand a frame to the hub (from any thread)."""
+        if self.loop is not None and not self.loop.is_closed():
+            self.loop.call_soon_threadsafe(self.hub.publish, mission_id, frame)
+
+    def transition(
+        self,
+        mission_id: str,
+        status: MissionStatus,
+        reason: str = "",
+        state: dict[str, Any] | None = None,
+    ) -> None:
+        """Store a status change, then broadcast it (nothing when the store refuses it)."""
+        if self.store.transition(mission_id, status, reason, state):  # written before broadcast
+            self.publish(
+                mission_id, StatusEvent(type="event", kind="status", status=status, reason=reason)
+            )
+
+    def publish_end(self, mission_id: str) -> None:
+        """Tell websocket clients a mission ended (as the store now says)."""
+        row = self.store.get_mission(mission_id)
+        if row is not None:
+            end = EndFrame(type="end", status=MissionStatus(row.status), reason=row.reason)
+            self.publish(mission_id, end)
+
+    def prune(self) -> int:
+        """Delete finished missions older than the retention setting (0 keeps them all)."""
+        self.pruned_at = time.monotonic()
+        days = self.settings.retention_days
+        if days <= 0:
+            return 0
+        gone = self.store.prune(datetime.now(UTC) - timedelta(days=days))
+        if gone:
+            log.info("retention: deleted %d missions that ended over %g days ago", gone, days)
+        return gone
+
+    def handle(self, mission_id: str, message: WorkerMessage) -> bool:
+        """Store, then broadcast, one worker message; True at the end."""
+        if isinstance(message, Publish):
+            try:
+                frame = parse_frame(message.frame)
+            except ValidationError:  # a bug in the worker: say so, never send it to clients
+                log.exception("mission %s: a frame breaks the protocol", mission_id)
+            else:
+                if isinstance(frame, StateFrame):
+                    self.trees[mission_id] = frame.tree
+                self.publish(mission_id, frame)
+        elif isinstance(message, SaveState):
+            self.store.save_state(mission_id, message.state)
+        elif isinstance(message, Transition):
+            self.transition(mission_id, message.status, message.reason, message.state)
+        elif isinstance(message, Replanned):
+            # replanning (status), the replan (event), then its plan, then executing again
+            record = message.record
+            self.store.add_replan(mission_id, record)
+            self.metrics.replan_latency.observe(record["latency_ms"] / 1000)
+            self.transition(mission_id, MissionStatus.REPLANNING, record["trigger"])
+            self.publish(
+                mission_id,
+                ReplanEvent(
+                    type="event",
+                    kind="replan",
+                    t=message.t,
+                    trigger=record["trigger"],
+                    detail=record["detail"],
+                    latency_ms=record["latency_ms"],
+                    old=record["old"],
+                    new=record["new"],
+                    status=record["status"],
+                    version=message.version,
+                ),
+            )
+        elif isinstance(message, PlanMade):
+            self.store.add_plan(
+                mission_id,
+                message.version,
+                message.domain,
+                message.domain_pddl,
+                message.problem_pddl,
+                message.plan,
+                message.actions,
+            )
+            self.publish(
+                mission_id,
+                PlanFrame(
+                    type="plan",
+                    version=message.version,
+                    plan=message.plan,
+                    actions=message.actions,
+                ),
+            )
+            if message.version > 1:
+                self.transition(mission_id, MissionStatus.EXECUTING)
+        elif isinstance(message, TrajectoryDone):
+            self.store.save_trajectory(mission_id, message.points)
+        elif isinstance(message, Ended):
+            status, reason = message.status, message.reason
+            if status == MissionStatus.CANCELLED and self.shutting_down.is_set():
+                status, reason = MissionStatus.FAILED, "interrupted (server shut down)"
+            self.end(mission_id, status, reason, message.state)
+            return True
+        return False
+
+    def end(
+        self,
+        mission_id: str,
+        status: MissionStatus,
+        reason: str,
+        state: dict[str, Any] | None,
+    ) -> None:
+        """Store the terminal status (with the last tree), then send the ``end`` frame."""
+        tree = self.trees.pop(mission_id, None)
+        if tree is not None:  # kept in the store, no longer in memory (GET /missions/{id}/tree)
+            if state is None:
+                row = self.store.get_mission(mission_id)
+                state = dict(row.state or {}) if row is not None else {}
+            state = {"tree": tree, **state}  # the worker's final tree, when it sent one, wins
+        if self.store.transition(mission_id, status, reason, state):
+            self.metrics.finished.labels(status).inc()
+        if time.monotonic() - self.pruned_at > PRUNE_SECONDS:
+            self.prune()
+        row = self.store.get_mission(mission_id)
+        final = MissionStatus(row.status) if row else status
+        end = EndFrame(type="end", status=final, reason=row.reason if row else reason)
+        self.publish(mission_id, end)
