@@ -175,7 +175,9 @@ class NavigationStrategy:
                 static=(world.static_clearance_at, world.static_version),
                 previous=remaining,
             )
-            if plan.status not in ("unreachable", "unsolvable"):
+            # Past suspected surfaces too when the search cannot get round them in time.
+            again = ("unreachable", "unsolvable") + (("timeout",) if suspected else ())
+            if plan.status not in again:
                 break
         return plan
 

@@ -33,7 +33,9 @@ CONTACT_STANDOFF = 0.02  # metres beyond the touching unit's surface where the c
 CONTACT_EXTENT = 0.1  # metres a side contact is marked beyond each end of the touching unit
 SUSPECT_EXTENT = 0.6  # metres further the touched surface is suspected to go on (plans avoid
 # it while they can; beams that see it free clear it) ...
-SUSPECT_ANGLE = math.radians(30)  # ... at up to this angle to the touching part
+SUSPECT_ANGLE = math.radians(30)  # ... at up to this angle to the touching part, ...
+SUSPECT_DEPTH = 0.1  # ... and no deeper into the touched side than this (a thin wall's far
+# side, where a goal may lie, is not suspected)
 
 
 class MissionBehaviour(py_trees.behaviour.Behaviour):
@@ -109,8 +111,8 @@ def contact_points(ctx: MissionContext, contact: ContactReading) -> tuple[Points
         np.min(point_segment_distance(fan[:, None, :], fp.starts, fp.ends) - fp.radii, axis=-1)
         > 0.03
     )
-    ahead = (fan - centre) @ outward >= -0.01
-    suspected = fan[off_body & ahead]
+    depth = (fan - centre) @ outward  # how far into the touched side
+    suspected = fan[off_body & (depth >= -0.01) & (depth <= SUSPECT_DEPTH)]
     if contact.side in ("front", "rear"):
         # An end bumper felt one point of its cap, somewhere within 45 degrees of the axis:
         # only the axis point is taken as certain; the rest of the cap's width is suspected.
