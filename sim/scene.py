@@ -47,6 +47,13 @@ class Scene:
         self.first_edge: Index = np.cumsum([0, *sizes[:-1]]).astype(np.intp)
         boxes = [o.bounding_box() for o in obstacles]
         self.boxes = np.array(boxes, dtype=float).reshape(-1, 4)  # [N, (x0, y0, x1, y1)]
+        # Per obstacle, for the compiled kernels: its circle row (-1 for a polygon), a polygon's
+        # first edge and edge count.
+        self.kind = np.zeros((self.count, 3), dtype=np.int64)
+        self.kind[:, 0] = -1
+        self.kind[self.circle_index, 0] = np.arange(self.circle_index.size)
+        self.kind[self.polygon_index, 1] = self.first_edge
+        self.kind[self.polygon_index, 2] = sizes
 
     def segment_clearance(self, a: Array, b: Array) -> Array:
         """Clearance ``[C, N]`` of segments ``a-b`` ``[C, 2]`` to each obstacle (0 when touching or

@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from sim import collision_kernel
 from sim.obstacles import Obstacle, ray_segment_hits
 from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry, head_tip, joint_positions
 from sim.scene import Scene
@@ -217,6 +218,23 @@ class World:
     def free_within(self, fp: Footprint, distance: float) -> bool:
         """Whether ``distance <= gap(fp)``, measuring only obstacles that could decide it
         (those whose bounding boxes come within ``distance`` + the largest radius)."""
+        if collision_kernel.AVAILABLE and fp.starts.ndim == 2:
+            scene = self._scene(tuple(range(len(self.obstacles))))
+            b = self.bounds
+            gap = collision_kernel.gap(
+                fp.starts,
+                fp.ends,
+                fp.radii,
+                np.array([b.xmin, b.xmax, b.ymin, b.ymax]),
+                distance + float(np.max(fp.radii)),
+                scene.boxes,
+                scene.kind,
+                scene.centres,
+                scene.radii,
+                scene.edge_a,
+                scene.edge_b,
+            )
+            return distance <= max(gap, 0.0)
         ends = np.concatenate([fp.starts, fp.ends])
         gap = float(np.min(self.bounds.wall_clearance(ends) - np.concatenate([fp.radii, fp.radii])))
         near = self._near(fp, distance + float(np.max(fp.radii)))
