@@ -80,7 +80,7 @@ def _segment_edge(
         return 0.0
     to_edge = min(_point_segment(ax, ay, cx, cy, dx, dy), _point_segment(bx, by, cx, cy, dx, dy))
     to_segment = min(_point_segment(cx, cy, ax, ay, bx, by), _point_segment(dx, dy, ax, ay, bx, by))
-    return min(to_edge, to_segment)
+    return float(min(to_edge, to_segment))
 
 
 @_jit

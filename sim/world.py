@@ -221,7 +221,7 @@ class World:
         if collision_kernel.AVAILABLE and fp.starts.ndim == 2:
             scene = self._scene(tuple(range(len(self.obstacles))))
             b = self.bounds
-            gap = collision_kernel.gap(
+            gap: float = collision_kernel.gap(
                 fp.starts,
                 fp.ends,
                 fp.radii,
