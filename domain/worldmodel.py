@@ -34,6 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from domain import interpolate_kernel
 from domain.clearance import DistanceMap, clearance_map
 from domain.known import distance_block, obstacle_clear
 from domain.occupancy import (
@@ -389,6 +390,14 @@ class WorldModel:
     def _interpolate(self, grid: Array, pts: Array) -> Array:
         """Bilinear between cell centres (nearest beyond the outer centres), by fancy indexing:
         planners call this thousands of times per search, on a few thousand points each."""
+        if interpolate_kernel.AVAILABLE and grid.flags.c_contiguous:
+            flat_pts = np.ascontiguousarray(pts, dtype=float).reshape(-1, 2)
+            values = np.empty(flat_pts.shape[0])
+            origin = self.grid.origin
+            interpolate_kernel.bilinear(
+                grid, flat_pts, origin[0], origin[1], self.grid.resolution, values
+            )
+            return values.reshape(pts.shape[:-1])
         res = self.grid.resolution
         nx, ny = grid.shape
         u = np.clip((pts[..., 0] - self.grid.origin[0]) / res - 0.5, 0.0, nx - 1.0)

@@ -93,3 +93,27 @@ def test_pairwise_sum_is_numpys() -> None:
     for n in (*range(0, 20), 127, 128, 129, 300, 1000):
         a = rng.random(n) * 10.0 ** rng.integers(-3, 3, n)
         assert occupancy_kernel._pairwise_sum(a, 0, n) == np.sum(a)
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (1, 7), (6, 1), (40, 30)])
+def test_bilinear_equals_numpy(shape: tuple[int, int], monkeypatch: pytest.MonkeyPatch) -> None:
+    """The compiled interpolation gives numpy's values, inside, on and beyond the outer centres."""
+    from domain import interpolate_kernel
+
+    rng = np.random.default_rng(4)
+    nx, ny = shape
+    bounds = Bounds(-1.0, -1.0 + nx * 0.05, 2.0, 2.0 + ny * 0.05)
+    model = WorldModel(bounds)
+    grid = rng.random(shape) * 2.0
+    pts = np.stack(
+        [
+            rng.uniform(-1.3, bounds.xmax + 0.3, (5, 41)),
+            rng.uniform(1.7, bounds.ymax + 0.3, (5, 41)),
+        ],
+        axis=-1,
+    )
+    compiled = model._interpolate(grid, pts)
+    monkeypatch.setattr(interpolate_kernel, "AVAILABLE", False)
+    reference = model._interpolate(grid, pts)
+    assert compiled.shape == reference.shape == (5, 41)
+    assert np.array_equal(compiled, reference)
