@@ -34,9 +34,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from domain import interpolate_kernel
 from domain.clearance import DistanceMap, clearance_map
-from domain.known import distance_block, obstacle_clear
+from domain.interpolate import bilinear
+from domain.known import axis_samples, distance_block, known_capsules_clear
 from domain.occupancy import (
     Grid,
     RangeObservation,
@@ -274,9 +274,10 @@ class WorldModel:
             raise ValueError("capsules_clear: radius + margin must stay below max_clearance")
         walls = np.minimum(self.bounds.wall_clearance(a), self.bounds.wall_clearance(b))
         ok: NDArray[np.bool_] = np.all(walls >= need, axis=-1)  # wall distance is linear: ends
-        points = self._axis_samples(a, b)  # [B, C, n, 2]
+        points = axis_samples(a, b, 0.5 * self.grid.resolution)  # [B, C, n, 2]
         if self._known:
-            self._known_clear(a, b, points, need, ok)
+            near_known = self._interpolate(self._static, points).min(axis=-1)  # [B, C]
+            known_capsules_clear(self._known, a, b, near_known, need, self.grid.resolution, ok)
         if self._has_dynamic():
             dynamic = self._interpolate(self._dynamic(), points)
             ok &= np.all(dynamic >= need[:, None], axis=(-2, -1))
@@ -357,61 +358,9 @@ class WorldModel:
         out: Array = cached
         return out
 
-    def _axis_samples(self, a: Array, b: Array) -> Array:
-        """Points along each capsule axis ``[..., C, n, 2]``, at most half a cell apart."""
-        step = 0.5 * self.grid.resolution
-        length = float(np.max(np.linalg.norm(b - a, axis=-1), initial=0.0))
-        t = np.linspace(0.0, 1.0, max(2, int(np.ceil(length / step)) + 1))
-        points: Array = a[..., None, :] + t[:, None] * (b - a)[..., None, :]
-        return points
-
-    def _known_clear(
-        self, a: Array, b: Array, points: Array, need: Array, ok: NDArray[np.bool_]
-    ) -> None:
-        """Clear ``ok`` ``[B]`` where a capsule comes within ``need`` of a known obstacle.
-
-        The exact static clearance at cell centres is 1-Lipschitz, so its interpolation at the
-        axis samples bounds the true clearance on the axis within half a cell diagonal plus a
-        quarter cell (the samples' spacing): capsules far from known geometry pass, capsules deep
-        in it fail, and only the rest are measured exactly against the obstacles.
-        """
-        res = self.grid.resolution
-        nearest = self._interpolate(self._static, points).min(axis=-1)  # [B, C]
-        corner = res * math.sqrt(0.5)
-        blocked = np.any(nearest + corner < need, axis=-1)
-        unsure = np.flatnonzero(ok & ~blocked & np.any(nearest - corner - res / 4 < need, axis=-1))
-        ok &= ~blocked
-        if unsure.size:
-            sub = np.ones(unsure.size, dtype=bool)
-            for obstacle in self._known:
-                obstacle_clear(obstacle, a[unsure], b[unsure], need, sub)
-            ok[unsure] = sub
-
     def _interpolate(self, grid: Array, pts: Array) -> Array:
-        """Bilinear between cell centres (nearest beyond the outer centres), by fancy indexing:
-        planners call this thousands of times per search, on a few thousand points each."""
-        if interpolate_kernel.AVAILABLE and grid.flags.c_contiguous:
-            flat_pts = np.ascontiguousarray(pts, dtype=float).reshape(-1, 2)
-            values = np.empty(flat_pts.shape[0])
-            origin = self.grid.origin
-            interpolate_kernel.bilinear(
-                grid, flat_pts, origin[0], origin[1], self.grid.resolution, values
-            )
-            return values.reshape(pts.shape[:-1])
-        res = self.grid.resolution
-        nx, ny = grid.shape
-        u = np.clip((pts[..., 0] - self.grid.origin[0]) / res - 0.5, 0.0, nx - 1.0)
-        v = np.clip((pts[..., 1] - self.grid.origin[1]) / res - 0.5, 0.0, ny - 1.0)
-        i0 = np.minimum(u.astype(np.intp), max(nx - 2, 0))
-        j0 = np.minimum(v.astype(np.intp), max(ny - 2, 0))
-        fu, fv = u - i0, v - j0
-        flat = grid.ravel()
-        base = i0 * ny + j0
-        di, dj = (ny if nx > 1 else 0), (1 if ny > 1 else 0)
-        low = flat[base] * (1 - fv) + flat[base + dj] * fv
-        high = flat[base + di] * (1 - fv) + flat[base + di + dj] * fv
-        out: Array = low * (1 - fu) + high * fu
-        return out
+        """Bilinear between cell centres (nearest beyond the outer centres)."""
+        return bilinear(grid, self.grid, pts)
 
     def _cached(self, key: str) -> Any:
         if self._cache_version != self.version:

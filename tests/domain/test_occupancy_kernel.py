@@ -98,8 +98,6 @@ def test_pairwise_sum_is_numpys() -> None:
 @pytest.mark.parametrize("shape", [(1, 1), (1, 7), (6, 1), (40, 30)])
 def test_bilinear_equals_numpy(shape: tuple[int, int], monkeypatch: pytest.MonkeyPatch) -> None:
     """The compiled interpolation gives numpy's values, inside, on and beyond the outer centres."""
-    from domain import interpolate_kernel
-
     rng = np.random.default_rng(4)
     nx, ny = shape
     bounds = Bounds(-1.0, -1.0 + nx * 0.05, 2.0, 2.0 + ny * 0.05)
@@ -113,7 +111,7 @@ def test_bilinear_equals_numpy(shape: tuple[int, int], monkeypatch: pytest.Monke
         axis=-1,
     )
     compiled = model._interpolate(grid, pts)
-    monkeypatch.setattr(interpolate_kernel, "AVAILABLE", False)
+    monkeypatch.setattr(occupancy_kernel, "AVAILABLE", False)
     reference = model._interpolate(grid, pts)
     assert compiled.shape == reference.shape == (5, 41)
     assert np.array_equal(compiled, reference)
