@@ -139,3 +139,71 @@ def gap(  # pragma: no cover - compiled
                         clearance = min(clearance, d)
             best = min(best, clearance - radii[c])
     return float(best)
+
+
+@_jit
+def _ray_edge(
+    ox: float, oy: float, dx: float, dy: float, ax: float, ay: float, bx: float, by: float
+) -> float:  # pragma: no cover - compiled
+    """``ray_segment_hits`` for one unit ray and one segment: the distance along it, inf if missed."""
+    ex, ey = bx - ax, by - ay
+    denom = dx * ey - dy * ex
+    if not abs(denom) > EPS:
+        return np.inf
+    rx, ry = ax - ox, ay - oy
+    t = (rx * ey - ry * ex) / denom
+    s = (rx * dy - ry * dx) / denom
+    if t >= 0 and s >= 0 and s <= 1:
+        return t
+    return np.inf
+
+
+@_jit
+def ray_cast(  # pragma: no cover - compiled
+    origin: Array,
+    dirs: Array,  # [R, 2] unit rays
+    max_range: float,
+    wall_a: Array,  # [W, 2] the arena edges within reach
+    wall_b: Array,
+    ids: NDArray[np.int64],  # [M] the obstacles near enough to matter, in index order
+    kind: NDArray[np.int64],  # [M, 3] of their scene (circle column or -1, first edge, edges)
+    circle_t: Array,  # [R, circles of the scene]: their distances, from numpy (see World)
+    edge_a: Array,
+    edge_b: Array,
+    dist: Array,  # out [R]
+    what: NDArray[np.int64],  # out [R]: obstacle index, -1 (wall) or -2 (nothing in range)
+) -> None:
+    """``World.ray_cast``'s first hits: the walls first, then each obstacle in order, the
+    first strict minimum wins (as ``argmin`` over its table); capped at ``max_range``."""
+    ox, oy = origin[0], origin[1]
+    inside = np.zeros(ids.size, dtype=np.bool_)
+    for j in range(ids.size):
+        if kind[j, 0] < 0:
+            inside[j] = _inside(ox, oy, edge_a, edge_b, kind[j, 1], kind[j, 1] + kind[j, 2])
+    for r in range(dirs.shape[0]):
+        dx, dy = dirs[r, 0], dirs[r, 1]
+        best = np.inf
+        for w in range(wall_a.shape[0]):
+            best = min(
+                best,
+                _ray_edge(ox, oy, dx, dy, wall_a[w, 0], wall_a[w, 1], wall_b[w, 0], wall_b[w, 1]),
+            )
+        hit = -1
+        for j in range(ids.size):
+            if kind[j, 0] >= 0:
+                t = circle_t[r, kind[j, 0]]
+            elif inside[j]:
+                t = 0.0
+            else:
+                t = np.inf
+                for e in range(kind[j, 1], kind[j, 1] + kind[j, 2]):
+                    t = min(
+                        t,
+                        _ray_edge(
+                            ox, oy, dx, dy, edge_a[e, 0], edge_a[e, 1], edge_b[e, 0], edge_b[e, 1]
+                        ),
+                    )
+            if t < best:
+                best, hit = t, ids[j]
+        what[r] = hit if best <= max_range else -2
+        dist[r] = min(best, max_range)

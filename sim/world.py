@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
@@ -188,6 +189,8 @@ class World:
         ox, oy = float(origin[0]), float(origin[1])
         reach = (oy - b.ymin, b.xmax - ox, b.ymax - oy, ox - b.xmin)  # the four edges in order
         close = [k for k in range(4) if not reach[k] > max_range]
+        if collision_kernel.AVAILABLE and dirs.ndim == 2:
+            return self._ray_cast_compiled(origin, dirs, max_range, close)
         if close:
             walls = ray_segment_hits(origin, dirs, corners[close], following[close]).min(axis=-1)
         else:
@@ -204,6 +207,35 @@ class World:
         what = np.where(best == 0, WALL, np.asarray((WALL, *near))[best])
         what = np.where(dist <= max_range, what, -2)
         return np.minimum(dist, max_range), what
+
+    def _ray_cast_compiled(
+        self, origin: Array, dirs: Array, max_range: float, close: list[int]
+    ) -> tuple[Array, Array]:
+        """``ray_cast`` through the compiled kernel (circles' distances still from numpy)."""
+        corners, following = self._walls
+        near = self._near_point(origin, max_range)
+        scene = self._scene(near)
+        if scene.circle_index.size:
+            circle_t = scene.circle_ray_cast(origin, dirs)
+        else:
+            circle_t = np.zeros((dirs.shape[0], 0))
+        dist = np.empty(dirs.shape[0])
+        what = np.empty(dirs.shape[0], dtype=np.int64)
+        collision_kernel.ray_cast(
+            np.asarray(origin, dtype=float),
+            np.ascontiguousarray(dirs, dtype=float),
+            float(max_range),
+            corners[close],
+            following[close],
+            np.array(near, dtype=np.int64),
+            scene.kind,
+            circle_t,
+            scene.edge_a,
+            scene.edge_b,
+            dist,
+            what,
+        )
+        return dist, cast(Array, what)  # integer indices, typed as ray_cast declares them
 
     def gap(self, fp: Footprint) -> float:
         """Smallest gap between a footprint and any obstacle or wall (0 if touching)."""
