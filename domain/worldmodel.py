@@ -71,6 +71,7 @@ class WorldModel:
         # Where a touched surface probably goes on (a bumper feels a short piece of a wall);
         # avoided while a way round exists, cleared by beams that see the cells free.
         self._suspected = np.zeros(self.grid.shape, dtype=bool)
+        self._suspected_any = False  # whether any cell is suspected (skips a scan per reading)
         # Clearance to each dynamic layer, kept current as cells come (``domain.clearance``).
         self._sensed_map = DistanceMap(self.grid, settings.max_clearance)
         self._contact_map = DistanceMap(self.grid, settings.max_clearance)
@@ -91,13 +92,16 @@ class WorldModel:
         else:
             self._sensed_map.add(self._sensed.occupied, became)
         changed = bool(became.size or ceased.size)
-        if np.any(self._suspected):
+        if self._suspected_any and np.any(self._suspected):
             seen_free = self._suspected & (self._sensed.log_odds <= self.settings.suspect_cleared)
             if np.any(seen_free):
                 self._suspected &= ~seen_free
+                self._suspected_any = bool(np.any(self._suspected))
                 changed = True
         if changed:
             self.version += 1
+        if not became.size:
+            return []
         return [(float(x), float(y)) for x, y in self.grid.centres(became)]
 
     def add_contact(self, point: tuple[float, float]) -> None:
@@ -134,6 +138,7 @@ class WorldModel:
         cells = cells.reshape(self.grid.shape) & ~self._contact
         if np.any(cells & ~self._suspected):
             self._suspected |= cells
+            self._suspected_any = True
             self.version += 1
 
     def suspected(self) -> NDArray[np.bool_]:
@@ -217,7 +222,7 @@ class WorldModel:
         lies beyond. With ``suspected``, suspected-surface cells count as contact cells.
         Cached per inflation until ``version`` changes."""
         grow_contact = inflation if contact_inflation is None else contact_inflation
-        suspect = suspected and bool(np.any(self._suspected))
+        suspect = suspected and self._suspected_any
         key = f"inflated:{inflation:g}:{grow_contact:g}:{suspect}"
         grid = self._cached(key)
         if grid is None:
