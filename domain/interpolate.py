@@ -14,19 +14,30 @@ import numpy as np
 from domain import occupancy_kernel
 from domain.grid import Grid
 from sim.robot import Array
+from sim.world import Bounds
 
 __all__ = ["bilinear"]
 
 
-def bilinear(values: Array, grid: Grid, pts: Array) -> Array:
+def bilinear(values: Array, grid: Grid, pts: Array, walls: Bounds | None = None) -> Array:
     """``values`` ``[nx, ny]`` (one per cell centre of ``grid``) between cell centres at points
-    ``[..., 2]``, nearest beyond the outer centres."""
+    ``[..., 2]``, nearest beyond the outer centres; with ``walls``, at most each point's
+    distance to them (``np.minimum`` with ``walls.wall_clearance``, negative outside)."""
     if occupancy_kernel.AVAILABLE and values.flags.c_contiguous:
         flat_pts = np.ascontiguousarray(pts, dtype=float).reshape(-1, 2)
         out = np.empty(flat_pts.shape[0])
-        _compiled(values, flat_pts, grid.origin[0], grid.origin[1], grid.resolution, out)
+        box = (walls.xmin, walls.xmax, walls.ymin, walls.ymax) if walls is not None else _NO_WALLS
+        origin = grid.origin
+        _compiled(values, flat_pts, origin[0], origin[1], grid.resolution, *box, out)
         return out.reshape(np.shape(pts)[:-1])
-    return _numpy(values, grid, pts)
+    inner = _numpy(values, grid, pts)
+    if walls is None:
+        return inner
+    out_np: Array = np.minimum(inner, walls.wall_clearance(pts))
+    return out_np
+
+
+_NO_WALLS = (-np.inf, np.inf, -np.inf, np.inf)  # nothing is near walls at infinity
 
 
 def _numpy(values: Array, grid: Grid, pts: Array) -> Array:
@@ -49,9 +60,19 @@ def _numpy(values: Array, grid: Grid, pts: Array) -> Array:
 
 @occupancy_kernel._jit
 def _compiled(  # pragma: no cover - compiled
-    values: Array, pts: Array, ox: float, oy: float, res: float, out: Array
+    values: Array,
+    pts: Array,
+    ox: float,
+    oy: float,
+    res: float,
+    xmin: float,
+    xmax: float,
+    ymin: float,
+    ymax: float,
+    out: Array,
 ) -> None:
-    """``_numpy`` for points ``[P, 2]`` into ``out`` ``[P]``, one loop, the same operations."""
+    """``_numpy`` for points ``[P, 2]`` into ``out`` ``[P]``, one loop, the same operations,
+    then the minimum with the distance to the walls (as ``Bounds.wall_clearance``)."""
     nx, ny = values.shape
     flat = values.ravel()
     i_top, j_top = max(nx - 2, 0), max(ny - 2, 0)
@@ -66,4 +87,6 @@ def _compiled(  # pragma: no cover - compiled
         base = i0 * ny + j0
         low = flat[base] * (1 - fv) + flat[base + dj] * fv
         high = flat[base + di] * (1 - fv) + flat[base + di + dj] * fv
-        out[k] = low * (1 - fu) + high * fu
+        x, y = pts[k, 0], pts[k, 1]
+        wall = min(min(x - xmin, xmax - x), min(y - ymin, ymax - y))
+        out[k] = min(low * (1 - fu) + high * fu, wall)

@@ -75,7 +75,7 @@ class WorldModel:
         # Clearance to each dynamic layer, kept current as cells come (``domain.clearance``).
         self._sensed_map = DistanceMap(self.grid, settings.max_clearance)
         self._contact_map = DistanceMap(self.grid, settings.max_clearance)
-        self._cache: dict[str, Any] = {}
+        self._cache: dict[Any, Any] = {}
         self._cache_version = -1
         for obstacle in known:
             self.add_known(obstacle)
@@ -223,7 +223,7 @@ class WorldModel:
         Cached per inflation until ``version`` changes."""
         grow_contact = inflation if contact_inflation is None else contact_inflation
         suspect = suspected and self._suspected_any
-        key = f"inflated:{inflation:g}:{grow_contact:g}:{suspect}"
+        key = ("inflated", inflation, grow_contact, suspect)
         grid = self._cached(key)
         if grid is None:
             if grow_contact == inflation and not suspect:
@@ -238,26 +238,18 @@ class WorldModel:
                 touched = np.maximum(near - grow_contact, 0.0)
                 grown = np.minimum(sensed, touched)
             grid = self._store(key, np.minimum(self._static, grown))
-        pts = np.asarray(points, dtype=float)
-        out: Array = np.minimum(self._interpolate(grid, pts), self.bounds.wall_clearance(pts))
-        return out
+        return bilinear(grid, self.grid, np.asarray(points, dtype=float), self.bounds)
 
     def clearance_at(self, points: Array) -> Array:
         """Clearance at world points ``[..., 2]``: bilinear between cell centres, exact to the
         walls (negative outside the bounds). Between centres, near a convex obstacle, bilinear
         may exceed the true distance by about resolution² / (8 x distance); ``capsules_clear``
         measures known obstacles exactly instead."""
-        pts = np.asarray(points, dtype=float)
-        inner = self._interpolate(self.clearance(), pts)
-        out: Array = np.minimum(inner, self.bounds.wall_clearance(pts))
-        return out
+        return bilinear(self.clearance(), self.grid, np.asarray(points, dtype=float), self.bounds)
 
     def static_clearance_at(self, points: Array) -> Array:
         """Clearance to the walls and known obstacles alone (what the operator's map says)."""
-        pts = np.asarray(points, dtype=float)
-        inner = self._interpolate(self._static, pts)
-        out: Array = np.minimum(inner, self.bounds.wall_clearance(pts))
-        return out
+        return bilinear(self._static, self.grid, np.asarray(points, dtype=float), self.bounds)
 
     @property
     def static_version(self) -> int:
@@ -367,13 +359,13 @@ class WorldModel:
         """Bilinear between cell centres (nearest beyond the outer centres)."""
         return bilinear(grid, self.grid, pts)
 
-    def _cached(self, key: str) -> Any:
+    def _cached(self, key: Any) -> Any:
         if self._cache_version != self.version:
             self._cache.clear()
             self._cache_version = self.version
         return self._cache.get(key)
 
-    def _store(self, key: str, value: Any) -> Any:
+    def _store(self, key: Any, value: Any) -> Any:
         value.flags.writeable = False  # shared with callers until the next change
         self._cache[key] = value
         return value

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from domain import occupancy_kernel
+from domain.interpolate import bilinear
 from domain.occupancy import RangeObservation, SensedLayer, WorldModelSettings
 from domain.worldmodel import WorldModel
 from sim.obstacles import Circle, rectangle, unit_vectors
@@ -111,7 +112,10 @@ def test_bilinear_equals_numpy(shape: tuple[int, int], monkeypatch: pytest.Monke
         axis=-1,
     )
     compiled = model._interpolate(grid, pts)
+    within = bilinear(grid, model.grid, pts, bounds)
     monkeypatch.setattr(occupancy_kernel, "AVAILABLE", False)
     reference = model._interpolate(grid, pts)
-    assert compiled.shape == reference.shape == (5, 41)
+    assert compiled.shape == reference.shape == within.shape == (5, 41)
     assert np.array_equal(compiled, reference)
+    assert np.array_equal(within, bilinear(grid, model.grid, pts, bounds))
+    assert np.any(within < 0) and np.any(within < compiled)  # points outside, near the walls
