@@ -113,6 +113,9 @@ class SensedLayer:
         self.occupied = np.zeros(grid.shape, dtype=bool)
         self.compiled = kernel.AVAILABLE if compiled is None else compiled and kernel.AVAILABLE
         self._scratch: tuple[Array, ...] | None = None
+        # the grid as the kernels take it: (origin x, origin y, resolution), (nx, ny)
+        self._geometry = np.array([grid.origin[0], grid.origin[1], grid.resolution])
+        self._shape = np.array(grid.shape, dtype=np.int64)
 
     def integrate(
         self, observations: Iterable[RangeObservation], known_clearance: Array
@@ -179,8 +182,8 @@ class SensedLayer:
         flat = self.log_odds.reshape(-1)
         arc, lik, bounds, cleared = kernel.sweep_and_clear(
             flat,
-            np.array([self.grid.origin[0], self.grid.origin[1], res]),
-            np.array(self.grid.shape, dtype=np.int64),
+            self._geometry,
+            self._shape,
             np.cos(sweep_dirs),
             np.sin(sweep_dirs),
             np.cos(arc_dirs),
