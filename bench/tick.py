@@ -1,12 +1,15 @@
 """Where a running mission's control tick goes: simulator step, sensing, world model, planning.
 
-    python -m bench.tick [MISSION.json ...] [--repeat 3] [--against /path/to/other/checkout]
+    python -m bench.tick [MISSION.json ...] [--repeat 3] [--clock cpu|wall] [--against /path/to/other/checkout]
 
 Each mission runs through the executor with timers around the simulator's step (integration and
 the collision sweep), its sensor read (ray casts), the world model's update, the planning
 strategy's replans and its per-tick checks and steering; the rest is the executor (behaviour
 tree, Robot port). Times are exclusive (a sensor read inside a step counts as sensing only) and
-per control tick, best of ``--repeat`` runs. ``--against`` runs the same measurement on another
+per control tick, best of ``--repeat`` runs. The split is in this thread's CPU time by default
+(``--clock cpu``): on a shared machine wall time also counts the time other processes held the
+core; ``--clock wall`` times it by the wall clock. A short mission runs first, untimed, so that
+one-off costs (imports, compiled kernels loading, motion tables) stay out of the figures. ``--against`` runs the same measurement on another
 checkout of the project (e.g. the main branch) in a child process, alternating with this one so
 both see the same machine load, and prints the speed-up per mission. Model/wall is model seconds
 per wall second; model/CPU uses this process's CPU time, which a loaded machine disturbs less.
@@ -50,21 +53,26 @@ PARTS = (
 LABELS = ("sim step", "sensing", "world model", "replanning", "steering", "executor")
 
 
-class Clock:
-    """Exclusive wall time per label: a timed call inside another counts for its own label only."""
+WARM_UP = "examples/fig9a-single-goal.json"
+CLOCKS = {"cpu": time.thread_time, "wall": time.perf_counter}
 
-    def __init__(self) -> None:
+
+class Clock:
+    """Exclusive time per label: a timed call inside another counts for its own label only."""
+
+    def __init__(self, now: Callable[[], float] = time.thread_time) -> None:
+        self.now = now
         self.totals: dict[str, float] = defaultdict(float)
         self._stack: list[float] = []
 
     def wrap(self, label: str, fn: Callable[..., Any]) -> Callable[..., Any]:
         def timed(*args: Any, **kwargs: Any) -> Any:
-            t0 = time.perf_counter()
+            t0 = self.now()
             self._stack.append(0.0)
             try:
                 return fn(*args, **kwargs)
             finally:
-                elapsed = time.perf_counter() - t0
+                elapsed = self.now() - t0
                 inner = self._stack.pop()
                 self.totals[label] += elapsed - inner
                 if self._stack:
@@ -73,7 +81,16 @@ class Clock:
         return timed
 
 
-def measure(path: str, repeat: int) -> dict[str, Any]:
+def warm_up() -> None:
+    """Run a short mission once, untimed: imports, kernels and caches are ready afterwards."""
+    from app.executor.runner import MissionRunner
+    from app.missions.spec import load_mission
+    from primitives.library import load_bundled
+
+    MissionRunner(load_mission(ROOT / WARM_UP), load_bundled()).run()
+
+
+def measure(path: str, repeat: int, clock_name: str = "cpu") -> dict[str, Any]:
     """Run one mission ``repeat`` times with the timers in place; the best run's figures."""
     from app.executor.runner import MissionRunner
     from app.missions.spec import load_mission
@@ -82,8 +99,9 @@ def measure(path: str, repeat: int) -> dict[str, Any]:
     library = load_bundled()
     spec = load_mission(Path(path))
     best: dict[str, Any] | None = None
+    now = CLOCKS[clock_name]
     for _ in range(repeat):
-        clock = Clock()
+        clock = Clock(now)
         originals = []
         for label, module, cls, method in PARTS:
             owner = getattr(importlib.import_module(module), cls, None)
@@ -94,10 +112,11 @@ def measure(path: str, repeat: int) -> dict[str, Any]:
         try:
             runner = MissionRunner(spec, library)
             ticks = 0
-            wall0, cpu0 = time.perf_counter(), time.process_time()
+            wall0, cpu0, split0 = time.perf_counter(), time.process_time(), now()
             while not runner.step():
                 ticks += 1
             wall, cpu = time.perf_counter() - wall0, time.process_time() - cpu0
+            total = now() - split0
         finally:
             for owner, method, original in originals:
                 if original is None:
@@ -105,7 +124,7 @@ def measure(path: str, repeat: int) -> dict[str, Any]:
                 else:
                     setattr(owner, method, original)
         parts = {k: clock.totals.get(k, 0.0) for k in LABELS[:-1]}
-        parts["executor"] = wall - sum(parts.values())
+        parts["executor"] = total - sum(parts.values())
         model = runner.ctx.t
         row = {
             "mission": Path(path).stem,
@@ -114,6 +133,7 @@ def measure(path: str, repeat: int) -> dict[str, Any]:
             "model": model,
             "wall": wall,
             "cpu": cpu,
+            "total": total,
             "per_tick_us": {k: 1e6 * v / max(ticks, 1) for k, v in parts.items()},
         }
         if best is None or wall < best["wall"]:
@@ -124,7 +144,7 @@ def measure(path: str, repeat: int) -> dict[str, Any]:
 
 def line(row: dict[str, Any], tag: str) -> str:
     split = "".join(f"{row['per_tick_us'][k]:>12.0f}" for k in LABELS)
-    total = 1e6 * row["wall"] / max(row["ticks"], 1)
+    total = 1e6 * row.get("total", row["wall"]) / max(row["ticks"], 1)
     return (
         f"{tag:<7}{row['mission'][:34]:<35}{row['status'][:9]:<10}{row['ticks']:>6}{split}"
         f"{total:>10.0f}{row['model'] / row['wall']:>9.0f}x{row['model'] / row['cpu']:>9.0f}x"
@@ -138,12 +158,13 @@ HEADER = (
 )
 
 
-def child(paths: list[str], checkout: Path, repeat: int) -> dict[str, Any]:
+def child(paths: list[str], checkout: Path, repeat: int, clock: str) -> dict[str, Any]:
     """The measurement of one mission on another checkout, in a process importing its code."""
     # Run this file by path from the other checkout's directory: its code comes first on sys.path
     # (running the file as a script would put bench/ first, whose sim.py shadows the package).
     run = "import runpy, sys; sys.argv = sys.argv[1:]; runpy.run_path(sys.argv[0], run_name='__main__')"
-    args = [str(Path(__file__).resolve()), "--json", "--repeat", str(repeat), *paths]
+    args = [str(Path(__file__).resolve()), "--json", "--repeat", str(repeat), "--clock", clock]
+    args += paths
     env = {**os.environ, "PYTHONPATH": str(checkout)}
     out = subprocess.run(
         [sys.executable, "-c", run, *args],
@@ -161,6 +182,9 @@ def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("missions", nargs="*", help="mission files (default: four of examples/)")
     parser.add_argument("--repeat", type=int, default=3, help="runs per mission, best wall time")
+    parser.add_argument(
+        "--clock", choices=sorted(CLOCKS), default="cpu", help="what the split is timed by"
+    )
     parser.add_argument("--against", type=Path, help="another checkout to compare with")
     parser.add_argument(
         "--json", action="store_true", help="one JSON line per mission (for --against)"
@@ -169,17 +193,19 @@ def main(argv: list[str] | None = None) -> int:
     if args.repeat < 1:
         parser.error("--repeat must be >= 1")
     paths = [str(Path(p).resolve()) for p in (args.missions or [ROOT / p for p in DEFAULT])]
+    warm_up()
     if args.json:
         for p in paths:
-            print(json.dumps(measure(p, args.repeat)), flush=True)
+            print(json.dumps(measure(p, args.repeat, args.clock)), flush=True)
         return 0
     if args.against is not None and not (args.against / "sim" / "simulator.py").is_file():
         parser.error(f"--against: {args.against} is not a checkout of this project")
+    print(f"per-tick split in {args.clock} time", flush=True)
     print(HEADER, flush=True)
     speedups = []
     for p in paths:
-        other = child([p], args.against, args.repeat) if args.against else None
-        here = measure(p, args.repeat)
+        other = child([p], args.against, args.repeat, args.clock) if args.against else None
+        here = measure(p, args.repeat, args.clock)
         print(line(here, "this"), flush=True)
         if other is not None:
             print(line(other, "other"), flush=True)

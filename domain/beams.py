@@ -46,7 +46,7 @@ def sector_points(obs: RangeObservation, until: float, step: float) -> Array:
 
 
 @functools.lru_cache(maxsize=256)
-def _spread(fov: float, n: int) -> tuple[float, ...]:
+def spread(fov: float, n: int) -> tuple[float, ...]:
     """``np.linspace(-fov / 2, fov / 2, n)`` as floats (a cone's ray offsets; few distinct ones)."""
     return tuple(np.linspace(-fov / 2, fov / 2, n).tolist())
 
@@ -62,7 +62,7 @@ def _fan(
     for obs, r in zip(readings, reach, strict=True):
         n = 1 if obs.fov == 0 else math.ceil(obs.fov * r / step) + 1  # as cone_angles
         if n > 1:
-            angles += [obs.angle + offset for offset in _spread(obs.fov, n)]
+            angles += [obs.angle + offset for offset in spread(obs.fov, n)]
         else:
             angles.append(obs.angle)
         n_dirs.append(n)
@@ -103,7 +103,7 @@ def swept_cells(
 
 
 @functools.lru_cache(maxsize=64)
-def _likelihoods(n: int) -> tuple[Array, Array]:
+def likelihoods(n: int) -> tuple[Array, Array]:
     """Standard scores ``z`` across ±2σ in ``n`` samples and their Gaussian weights."""
     z = np.linspace(-2.0, 2.0, n) if n > 1 else np.zeros(1)
     weights = np.exp(-0.5 * z * z)
@@ -115,7 +115,7 @@ def hit_points(obs: RangeObservation, distance: float, step: float) -> tuple[Arr
     """Where the hit may be: sample points ``[N, 2]`` across the cone over ``distance`` ± 2σ of
     the sensor's noise, with their Gaussian range likelihoods ``[N]``."""
     n = 2 * math.ceil(2.0 * obs.noise_std / step) + 1
-    z, likelihood = _likelihoods(n)
+    z, likelihood = likelihoods(n)
     rho = np.maximum(distance + obs.noise_std * z, 0.0)
     dirs = cone_directions(obs, distance, step)
     points = np.asarray(obs.origin) + rho[:, None, None] * dirs[None, :, :]
@@ -135,8 +135,8 @@ def arc_cells(
     sigma = np.array([obs.noise_std for obs in beams])
     n_z = [2 * math.ceil(2.0 * obs.noise_std / step) + 1 for obs in beams]
     reading, z_i, direction = _fan(beams, [d for _, d in hits], n_z, step)
-    z_all = np.concatenate([_likelihoods(n)[0] for n in n_z])
-    w_all = np.concatenate([_likelihoods(n)[1] for n in n_z])
+    z_all = np.concatenate([likelihoods(n)[0] for n in n_z])
+    w_all = np.concatenate([likelihoods(n)[1] for n in n_z])
     first_z = np.cumsum(n_z) - n_z
     z = z_all[first_z[reading] + z_i]
     rho = np.maximum(distance[reading] + sigma[reading] * z, 0.0)

@@ -29,7 +29,8 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from domain.beams import arc_cells, swept_cells
+from domain import occupancy_kernel as kernel
+from domain.beams import arc_cells, likelihoods, spread, swept_cells
 from domain.grid import Flat, Grid, unique_cells, unique_counts, unique_inverse
 from domain.observation import RangeObservation, range_observations
 from sim.robot import Array
@@ -97,13 +98,24 @@ class _Updates:
 
 
 class SensedLayer:
-    """Log-odds occupancy from range readings; ``occupied`` is the thresholded view."""
+    """Log-odds occupancy from range readings; ``occupied`` is the thresholded view.
 
-    def __init__(self, grid: Grid, settings: WorldModelSettings) -> None:
+    ``compiled`` picks the numba kernels (``domain.occupancy_kernel``, the default when numba is
+    there) or the numpy path; both give the same layer, value for value.
+    """
+
+    def __init__(
+        self, grid: Grid, settings: WorldModelSettings, compiled: bool | None = None
+    ) -> None:
         self.grid = grid
         self.settings = settings
         self.log_odds = np.zeros(grid.shape)
         self.occupied = np.zeros(grid.shape, dtype=bool)
+        self.compiled = kernel.AVAILABLE if compiled is None else compiled and kernel.AVAILABLE
+        self._scratch: tuple[Array, ...] | None = None
+        # the grid as the kernels take it: (origin x, origin y, resolution), (nx, ny)
+        self._geometry = np.array([grid.origin[0], grid.origin[1], grid.resolution])
+        self._shape = np.array(grid.shape, dtype=np.int64)
 
     def integrate(
         self, observations: Iterable[RangeObservation], known_clearance: Array
@@ -112,9 +124,114 @@ class SensedLayer:
 
         Returns the flat indices of cells that became occupied and of cells that stopped being so.
         """
+        valid = [obs for obs in observations if not math.isnan(obs.distance)]  # NaN: dropout
+        if self.compiled:
+            return self._integrate_compiled(valid, known_clearance)
+        return self._integrate_numpy(valid, known_clearance)
+
+    def _integrate_compiled(
+        self, valid: list[RangeObservation], known_clearance: Array
+    ) -> tuple[Flat, Flat]:
+        """``_integrate_numpy`` in two compiled loops (the same numbers, a tenth of the time):
+        here only the per-reading bookkeeping and numpy's cos, sin and exp."""
         s, res = self.settings, self.grid.resolution
         step = s.sample_step * res
-        valid = [obs for obs in observations if not math.isnan(obs.distance)]  # NaN: dropout
+        if not valid:
+            empty = np.zeros(0, dtype=np.intp)
+            return empty, empty
+        if self._scratch is None:
+            n = self.grid.nx * self.grid.ny
+            self._scratch = (np.full(n, -1, np.int64), np.zeros(n), np.zeros(n), np.zeros(n))
+        mark, acc, sure_acc, vague_acc = self._scratch
+        beams: list[tuple[float, float]] = []
+        swept: list[tuple[int, int, int]] = []
+        hits: list[tuple[int, int, int, int]] = []
+        hit_range: list[tuple[float, float, int]] = []
+        angles: list[float] = []
+        arc_angles: list[float] = []
+        z_parts: list[Array] = []
+        w_parts: list[Array] = []
+        tolerance: list[float] = []
+        narrow: list[bool] = []
+        z_count = 0
+        for k, obs in enumerate(valid):
+            reach = min(obs.distance, obs.max_range)
+            beams.append(obs.origin)
+            until = reach - (s.clear_sigmas * obs.noise_std + s.clear_margin)
+            if until > 0:  # as beams.swept_cells and beams._fan sample it
+                n = 1 if obs.fov == 0 else math.ceil(obs.fov * until / step) + 1
+                swept.append((len(angles), n, math.ceil(until / step)))
+                angles += [obs.angle + o for o in spread(obs.fov, n)] if n > 1 else [obs.angle]
+            else:
+                swept.append((0, 0, 0))
+            if obs.hit:  # as beams.arc_cells samples it
+                half = step / 2
+                n_z = 2 * math.ceil(2.0 * obs.noise_std / half) + 1
+                n = 1 if obs.fov == 0 else math.ceil(obs.fov * reach / half) + 1
+                hits.append((k, len(arc_angles), n, n_z))
+                hit_range.append((reach, obs.noise_std, z_count))
+                arc_angles += [obs.angle + o for o in spread(obs.fov, n)] if n > 1 else [obs.angle]
+                z, w = likelihoods(n_z)
+                z_parts.append(z)
+                w_parts.append(w)
+                z_count += n_z
+                tolerance.append(s.explained_sigmas * obs.noise_std + res * math.sqrt(0.5))
+                narrow.append(obs.fov * min(obs.distance, obs.max_range) <= s.unambiguous_arc * res)
+        sweep_dirs = np.array(angles)
+        arc_dirs = np.array(arc_angles)
+        flat = self.log_odds.reshape(-1)
+        arc, lik, bounds, cleared = kernel.sweep_and_clear(
+            flat,
+            self._geometry,
+            self._shape,
+            np.cos(sweep_dirs),
+            np.sin(sweep_dirs),
+            np.cos(arc_dirs),
+            np.sin(arc_dirs),
+            np.array(beams, dtype=float),
+            np.array(swept, dtype=np.int64).reshape(-1, 3),
+            step,
+            np.array(hits, dtype=np.int64).reshape(-1, 4),
+            np.array(hit_range, dtype=float).reshape(-1, 3),
+            np.concatenate([np.zeros(0), *z_parts]),
+            np.concatenate([np.zeros(0), *w_parts]),
+            s.log_odds_free,
+            s.log_odds_min,
+            mark,
+            acc,
+        )
+        # The occupancy probability of each arc cell after clearing (numpy's exp, as the numpy
+        # path computes it); cells within the noise of known geometry are explained by it.
+        per_hit = np.diff(bounds)
+        explained = known_clearance.reshape(-1)[arc] <= np.repeat(np.array(tolerance), per_hit)
+        p = np.where(explained, 1.0, 1.0 / (1.0 + np.exp(-flat[arc])))
+        became, ceased = kernel.share_and_mark(
+            flat,
+            self.occupied.reshape(-1),
+            arc,
+            lik,
+            bounds,
+            p,
+            explained,
+            np.array(narrow, dtype=bool),
+            cleared,
+            s.log_odds_hit,
+            s.dominant_share,
+            s.log_odds_max,
+            s.ambiguous_ceiling,
+            s.occupied_threshold,
+            sure_acc,
+            vague_acc,
+            mark,
+        )
+        return became, ceased
+
+    def _integrate_numpy(
+        self, valid: list[RangeObservation], known_clearance: Array
+    ) -> tuple[Flat, Flat]:
+        """The update in numpy: the reference the compiled kernels are held to."""
+        s, res = self.settings, self.grid.resolution
+        step = s.sample_step * res
         reach = [min(obs.distance, obs.max_range) for obs in valid]
         margins = [s.clear_sigmas * obs.noise_std + s.clear_margin for obs in valid]
         owner, cell = swept_cells(

@@ -35,7 +35,8 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from domain.clearance import DistanceMap, clearance_map
-from domain.known import distance_block, obstacle_clear
+from domain.interpolate import bilinear
+from domain.known import axis_samples, distance_block, known_capsules_clear
 from domain.occupancy import (
     Grid,
     RangeObservation,
@@ -70,10 +71,11 @@ class WorldModel:
         # Where a touched surface probably goes on (a bumper feels a short piece of a wall);
         # avoided while a way round exists, cleared by beams that see the cells free.
         self._suspected = np.zeros(self.grid.shape, dtype=bool)
+        self._suspected_any = False  # whether any cell is suspected (skips a scan per reading)
         # Clearance to each dynamic layer, kept current as cells come (``domain.clearance``).
         self._sensed_map = DistanceMap(self.grid, settings.max_clearance)
         self._contact_map = DistanceMap(self.grid, settings.max_clearance)
-        self._cache: dict[str, Any] = {}
+        self._cache: dict[Any, Any] = {}
         self._cache_version = -1
         for obstacle in known:
             self.add_known(obstacle)
@@ -90,13 +92,16 @@ class WorldModel:
         else:
             self._sensed_map.add(self._sensed.occupied, became)
         changed = bool(became.size or ceased.size)
-        if np.any(self._suspected):
+        if self._suspected_any and np.any(self._suspected):
             seen_free = self._suspected & (self._sensed.log_odds <= self.settings.suspect_cleared)
             if np.any(seen_free):
                 self._suspected &= ~seen_free
+                self._suspected_any = bool(np.any(self._suspected))
                 changed = True
         if changed:
             self.version += 1
+        if not became.size:
+            return []
         return [(float(x), float(y)) for x, y in self.grid.centres(became)]
 
     def add_contact(self, point: tuple[float, float]) -> None:
@@ -133,6 +138,7 @@ class WorldModel:
         cells = cells.reshape(self.grid.shape) & ~self._contact
         if np.any(cells & ~self._suspected):
             self._suspected |= cells
+            self._suspected_any = True
             self.version += 1
 
     def suspected(self) -> NDArray[np.bool_]:
@@ -216,8 +222,8 @@ class WorldModel:
         lies beyond. With ``suspected``, suspected-surface cells count as contact cells.
         Cached per inflation until ``version`` changes."""
         grow_contact = inflation if contact_inflation is None else contact_inflation
-        suspect = suspected and bool(np.any(self._suspected))
-        key = f"inflated:{inflation:g}:{grow_contact:g}:{suspect}"
+        suspect = suspected and self._suspected_any
+        key = ("inflated", inflation, grow_contact, suspect)
         grid = self._cached(key)
         if grid is None:
             if grow_contact == inflation and not suspect:
@@ -232,26 +238,18 @@ class WorldModel:
                 touched = np.maximum(near - grow_contact, 0.0)
                 grown = np.minimum(sensed, touched)
             grid = self._store(key, np.minimum(self._static, grown))
-        pts = np.asarray(points, dtype=float)
-        out: Array = np.minimum(self._interpolate(grid, pts), self.bounds.wall_clearance(pts))
-        return out
+        return bilinear(grid, self.grid, np.asarray(points, dtype=float), self.bounds)
 
     def clearance_at(self, points: Array) -> Array:
         """Clearance at world points ``[..., 2]``: bilinear between cell centres, exact to the
         walls (negative outside the bounds). Between centres, near a convex obstacle, bilinear
         may exceed the true distance by about resolution² / (8 x distance); ``capsules_clear``
         measures known obstacles exactly instead."""
-        pts = np.asarray(points, dtype=float)
-        inner = self._interpolate(self.clearance(), pts)
-        out: Array = np.minimum(inner, self.bounds.wall_clearance(pts))
-        return out
+        return bilinear(self.clearance(), self.grid, np.asarray(points, dtype=float), self.bounds)
 
     def static_clearance_at(self, points: Array) -> Array:
         """Clearance to the walls and known obstacles alone (what the operator's map says)."""
-        pts = np.asarray(points, dtype=float)
-        inner = self._interpolate(self._static, pts)
-        out: Array = np.minimum(inner, self.bounds.wall_clearance(pts))
-        return out
+        return bilinear(self._static, self.grid, np.asarray(points, dtype=float), self.bounds)
 
     @property
     def static_version(self) -> int:
@@ -273,9 +271,10 @@ class WorldModel:
             raise ValueError("capsules_clear: radius + margin must stay below max_clearance")
         walls = np.minimum(self.bounds.wall_clearance(a), self.bounds.wall_clearance(b))
         ok: NDArray[np.bool_] = np.all(walls >= need, axis=-1)  # wall distance is linear: ends
-        points = self._axis_samples(a, b)  # [B, C, n, 2]
+        points = axis_samples(a, b, 0.5 * self.grid.resolution)  # [B, C, n, 2]
         if self._known:
-            self._known_clear(a, b, points, need, ok)
+            near_known = self._interpolate(self._static, points).min(axis=-1)  # [B, C]
+            known_capsules_clear(self._known, a, b, near_known, need, self.grid.resolution, ok)
         if self._has_dynamic():
             dynamic = self._interpolate(self._dynamic(), points)
             ok &= np.all(dynamic >= need[:, None], axis=(-2, -1))
@@ -356,61 +355,17 @@ class WorldModel:
         out: Array = cached
         return out
 
-    def _axis_samples(self, a: Array, b: Array) -> Array:
-        """Points along each capsule axis ``[..., C, n, 2]``, at most half a cell apart."""
-        step = 0.5 * self.grid.resolution
-        length = float(np.max(np.linalg.norm(b - a, axis=-1), initial=0.0))
-        t = np.linspace(0.0, 1.0, max(2, int(np.ceil(length / step)) + 1))
-        points: Array = a[..., None, :] + t[:, None] * (b - a)[..., None, :]
-        return points
-
-    def _known_clear(
-        self, a: Array, b: Array, points: Array, need: Array, ok: NDArray[np.bool_]
-    ) -> None:
-        """Clear ``ok`` ``[B]`` where a capsule comes within ``need`` of a known obstacle.
-
-        The exact static clearance at cell centres is 1-Lipschitz, so its interpolation at the
-        axis samples bounds the true clearance on the axis within half a cell diagonal plus a
-        quarter cell (the samples' spacing): capsules far from known geometry pass, capsules deep
-        in it fail, and only the rest are measured exactly against the obstacles.
-        """
-        res = self.grid.resolution
-        nearest = self._interpolate(self._static, points).min(axis=-1)  # [B, C]
-        corner = res * math.sqrt(0.5)
-        blocked = np.any(nearest + corner < need, axis=-1)
-        unsure = np.flatnonzero(ok & ~blocked & np.any(nearest - corner - res / 4 < need, axis=-1))
-        ok &= ~blocked
-        if unsure.size:
-            sub = np.ones(unsure.size, dtype=bool)
-            for obstacle in self._known:
-                obstacle_clear(obstacle, a[unsure], b[unsure], need, sub)
-            ok[unsure] = sub
-
     def _interpolate(self, grid: Array, pts: Array) -> Array:
-        """Bilinear between cell centres (nearest beyond the outer centres), by fancy indexing:
-        planners call this thousands of times per search, on a few thousand points each."""
-        res = self.grid.resolution
-        nx, ny = grid.shape
-        u = np.clip((pts[..., 0] - self.grid.origin[0]) / res - 0.5, 0.0, nx - 1.0)
-        v = np.clip((pts[..., 1] - self.grid.origin[1]) / res - 0.5, 0.0, ny - 1.0)
-        i0 = np.minimum(u.astype(np.intp), max(nx - 2, 0))
-        j0 = np.minimum(v.astype(np.intp), max(ny - 2, 0))
-        fu, fv = u - i0, v - j0
-        flat = grid.ravel()
-        base = i0 * ny + j0
-        di, dj = (ny if nx > 1 else 0), (1 if ny > 1 else 0)
-        low = flat[base] * (1 - fv) + flat[base + dj] * fv
-        high = flat[base + di] * (1 - fv) + flat[base + di + dj] * fv
-        out: Array = low * (1 - fu) + high * fu
-        return out
+        """Bilinear between cell centres (nearest beyond the outer centres)."""
+        return bilinear(grid, self.grid, pts)
 
-    def _cached(self, key: str) -> Any:
+    def _cached(self, key: Any) -> Any:
         if self._cache_version != self.version:
             self._cache.clear()
             self._cache_version = self.version
         return self._cache.get(key)
 
-    def _store(self, key: str, value: Any) -> Any:
+    def _store(self, key: Any, value: Any) -> Any:
         value.flags.writeable = False  # shared with callers until the next change
         self._cache[key] = value
         return value

@@ -8,14 +8,13 @@ Explicit Euler on (x, y, ψ) exactly as kinematics.md §5. Two kernels compute t
   pose, so all twists of all steps are solved in one stacked least-squares call; ψ and (x, y)
   are then running sums. For a fixed shape the twist is solved once per rollout.
 
-The setting ``SCREWSNAKE_SIM_KERNEL`` (``auto``, ``numba`` or ``numpy``; default ``auto``: numba
+The setting ``SCREWSNAKE_KERNELS`` (``auto``, ``numba`` or ``numpy``; default ``auto``: numba
 when importable, else numpy) chooses; ``rollout(..., kernel=...)`` overrides it per call.
 """
 
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 from types import ModuleType
 from typing import Literal
@@ -24,11 +23,9 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from sim.controls import Control, FixedShape, as_batch
+from sim.kernel_setting import KERNELS, Kernel, kernel_setting
 from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry, body_twist, rotate
 
-Kernel = Literal["auto", "numba", "numpy"]
-KERNELS: tuple[Kernel, ...] = ("auto", "numba", "numpy")
-KERNEL_SETTING = "SCREWSNAKE_SIM_KERNEL"
 JointMode = Literal["paper", "complete"]
 JOINT_MODES: tuple[JointMode, ...] = ("paper", "complete")
 MAX_STEPS = 1_000_000
@@ -105,14 +102,6 @@ def twists(
     return body_twist(theta, phi, dphi, geometry)
 
 
-def kernel_setting() -> Kernel:
-    """The kernel chosen by ``SCREWSNAKE_SIM_KERNEL`` (``auto`` when unset)."""
-    value = os.environ.get(KERNEL_SETTING, "auto").strip().lower() or "auto"
-    if value not in KERNELS:
-        raise ValueError(f"{KERNEL_SETTING}: must be one of {KERNELS}, got {value!r}")
-    return value
-
-
 def compiled_kernels(kernel: Kernel | None = None) -> ModuleType | None:
     """``sim.kernels`` when ``kernel`` (default: the setting) selects it, else ``None``.
 
@@ -140,7 +129,7 @@ def rollout(
 ) -> Rollouts:
     """Simulate every control of the batch from ``start`` for ``config.duration``.
 
-    ``kernel`` picks the implementation (default: the ``SCREWSNAKE_SIM_KERNEL`` setting); both
+    ``kernel`` picks the implementation (default: the ``SCREWSNAKE_KERNELS`` setting); both
     give the same states to rounding."""
     times = config.times()
     poses0 = start_poses(start, control.size)

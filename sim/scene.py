@@ -47,6 +47,13 @@ class Scene:
         self.first_edge: Index = np.cumsum([0, *sizes[:-1]]).astype(np.intp)
         boxes = [o.bounding_box() for o in obstacles]
         self.boxes = np.array(boxes, dtype=float).reshape(-1, 4)  # [N, (x0, y0, x1, y1)]
+        # Per obstacle, for the compiled kernels: its circle row (-1 for a polygon), a polygon's
+        # first edge and edge count.
+        self.kind = np.zeros((self.count, 3), dtype=np.int64)
+        self.kind[:, 0] = -1
+        self.kind[self.circle_index, 0] = np.arange(self.circle_index.size)
+        self.kind[self.polygon_index, 1] = self.first_edge
+        self.kind[self.polygon_index, 2] = sizes
 
     def segment_clearance(self, a: Array, b: Array) -> Array:
         """Clearance ``[C, N]`` of segments ``a-b`` ``[C, 2]`` to each obstacle (0 when touching or
@@ -93,21 +100,26 @@ class Scene:
         missed, 0 from inside), ``[R, N]``, as ``obstacle.ray_cast`` gives it."""
         out = np.empty((dirs.shape[0], self.count))
         if self.circle_index.size:
-            rel = origin - self.centres  # [Nc, 2]
-            # One small product per circle: a batched product may round differently, and the
-            # readings must stay those of ``Circle.ray_cast``.
-            bq = np.stack([dirs @ r for r in rel], axis=-1)  # [R, Nc]
-            cq = np.array([r @ r for r in rel]) - self.radii**2
-            disc = bq * bq - cq
-            root = np.sqrt(np.maximum(disc, 0.0))
-            near, far = -bq - root, -bq + root
-            t = np.where(near >= 0, near, np.where(far >= 0, 0.0, np.inf))
-            out[:, self.circle_index] = np.where(disc >= 0, t, np.inf)
+            out[:, self.circle_index] = self.circle_ray_cast(origin, dirs)
         if self.polygon_index.size:
             hits = ray_segment_hits(origin, dirs, self.edge_a, self.edge_b)  # [R, E]
             first = np.minimum.reduceat(hits, self.first_edge, axis=1)
             inside = self.contains_polygon(origin[None, :])[0]  # [Np]
             out[:, self.polygon_index] = np.where(inside, 0.0, first)
+        return out
+
+    def circle_ray_cast(self, origin: Array, dirs: Array) -> Array:
+        """Distance along unit rays ``dirs`` ``[R, 2]`` to each circle, ``[R, circles]``."""
+        rel = origin - self.centres  # [Nc, 2]
+        # One small product per circle: a batched product may round differently, and the
+        # readings must stay those of ``Circle.ray_cast``.
+        bq = np.stack([dirs @ r for r in rel], axis=-1)  # [R, Nc]
+        cq = np.array([r @ r for r in rel]) - self.radii**2
+        disc = bq * bq - cq
+        root = np.sqrt(np.maximum(disc, 0.0))
+        near, far = -bq - root, -bq + root
+        t = np.where(near >= 0, near, np.where(far >= 0, 0.0, np.inf))
+        out: Array = np.where(disc >= 0, t, np.inf)
         return out
 
     def near(self, lo: Array, hi: Array, margin: float) -> Index:

@@ -7,8 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from sim.obstacles import unit_vectors
-from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry, head_tip
+from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry
 from sim.world import World
 
 NOTHING = -2  # what a ray reports when nothing lies within its range
@@ -70,6 +69,7 @@ class SensorReadings:
     joints: Array
     pose: Array
     hits: dict[str, int] = field(default_factory=dict)
+    origin: tuple[float, float] | None = None  # where the rays start (the head tip), if known
 
     def to_dict(self) -> dict[str, object]:
         return {
@@ -116,13 +116,18 @@ class SensorSuite:
     def read(
         self, world: World, pose: Array, joints: Array, dropped: frozenset[str] = frozenset()
     ) -> SensorReadings:
-        origin = head_tip(pose, self.geometry)
         forward = float(pose[2]) + math.pi
         ranges: dict[str, float] = {}
         hits: dict[str, int] = {}
-        # One ray cast for every ray of every sensor (capped per sensor afterwards).
+        # One ray cast for every ray of every sensor (capped per sensor afterwards); the head
+        # tip as head_tip() computes it, its cos and sin in the same numpy call as the rays'.
         offsets, starts, reach = self._layout()
-        all_dist, all_what = world.ray_cast(origin, unit_vectors(forward + offsets), reach)
+        angles = np.append(forward + offsets, forward)
+        cos, sin = np.cos(angles), np.sin(angles)
+        hl = self.geometry.head_length
+        tip = (float(pose[0]) + hl * float(cos[-1]), float(pose[1]) + hl * float(sin[-1]))
+        dirs = np.stack([cos[:-1], sin[:-1]], axis=-1)
+        all_dist, all_what = world.ray_cast(np.array(tip), dirs, reach)
         dists, whats = all_dist.tolist(), all_what.tolist()  # a few floats: plain Python is faster
         for k, sensor in enumerate(self.range_sensors):
             cap = sensor.max_range
@@ -142,4 +147,4 @@ class SensorSuite:
             measured = measured + self.rng.normal(0, self.joint_noise_std, size=3)
         if "joints" in dropped:
             measured = np.full(3, np.nan)
-        return SensorReadings(ranges, measured, np.array(pose, dtype=float), hits)
+        return SensorReadings(ranges, measured, np.array(pose, dtype=float), hits, tip)

@@ -20,9 +20,6 @@ from sim.robot import (
     Array,
     RobotGeometry,
     body_twist,
-    head_tip,
-    joint_positions,
-    rotate,
 )
 from sim.rollout import JOINT_MODES, JointMode
 from sim.sensors import SensorReadings, SensorSuite
@@ -143,11 +140,21 @@ class Simulator:
         phi, dphi = self._commanded_joints(control, self.t)
         phi = clamp_joints(phi, self.geometry)
         twist = self._twist(control.theta[0], phi, dphi)
-        velocity = np.append(rotate(twist[:2], np.array(self.pose[2])), twist[2])
-        target_pose = self.pose + self.dt * velocity
-        target_joints = clamp_joints(
-            self._commanded_joints(control, self.t + self.dt)[0], self.geometry
+        # velocity = (R(ψ)·(vx, vy), ψ̇) and pose + dt·velocity, as rotate() and numpy compute
+        # them element by element, on Python floats (a 3-vector is cheaper that way)
+        x, y, psi = self.pose.tolist()
+        vx, vy, w = twist.tolist()
+        c, s = float(np.cos(psi)), float(np.sin(psi))
+        dt = self.dt
+        target_pose = np.array(
+            [x + dt * (c * vx - s * vy), y + dt * (s * vx + c * vy), psi + dt * w]
         )
+        if self.forced is None and isinstance(control, FixedShape):
+            target_joints = phi  # the same joints at t + dt: clamping again changes nothing
+        else:
+            target_joints = clamp_joints(
+                self._commanded_joints(control, self.t + self.dt)[0], self.geometry
+            )
         contact = self._sweep(phi, target_pose, target_joints)
         self.t += self.dt
         records = []
@@ -178,7 +185,7 @@ class Simulator:
         for known, value in self._bodies:
             if known == key:
                 return value
-        value = (joint_positions(pose, phi, self.geometry), head_tip(pose, self.geometry))
+        value = body_points(pose, phi, self.geometry)
         self._bodies = [(key, value), *self._bodies[:1]]
         return value
 
@@ -186,10 +193,13 @@ class Simulator:
         """Move towards (pose1, phi1) in checked sub-steps; stop before the first contact."""
         pose0 = self.pose
         joints0, tip0 = self._body(pose0, phi0)
-        points0 = np.vstack([joints0, tip0])
-        points1 = np.vstack(self._body(pose1, phi1))
+        joints1, tip1 = self._body(pose1, phi1)
         # Chords under-estimate arcs slightly when the body turns; 5 % covers |Δψ| up to ~0.6 rad.
-        travel = 1.05 * float(np.max(np.linalg.norm(points1 - points0, axis=-1)))
+        moved = max(
+            math.sqrt(dx * dx + dy * dy)
+            for dx, dy in ([*(joints1 - joints0).tolist(), (tip1[0] - tip0[0], tip1[1] - tip0[1])])
+        )
+        travel = 1.05 * float(moved)
         if self.world.free_within(footprint_of(joints0, tip0, self.geometry), travel):
             self.pose, self.joints = pose1, phi1
             return None
@@ -202,3 +212,24 @@ class Simulator:
                 return contact
             self.pose, self.joints = pose, phi
         return None
+
+
+def body_points(pose: Array, phi: Array, geometry: RobotGeometry) -> tuple[Array, Array]:
+    """``joint_positions`` and ``head_tip`` of one pose ``[3]`` and shape ``[3]``: the same
+    operations element by element (the five angles' cos and sin in one numpy call, the sums
+    in the cumulative sums' order), on Python floats, far cheaper for one robot."""
+    x, y, psi = pose.tolist()
+    p0, p1, p2 = phi.tolist()
+    h2 = p0 + p1
+    angles = np.array([psi + 0.0, psi + p0, psi + h2, psi + (h2 + p2), psi + math.pi])
+    cos, sin = np.cos(angles).tolist(), np.sin(angles).tolist()
+    seg = [*geometry.segments.tolist(), geometry.unit_length]
+    points = [[x, y]]
+    ox = oy = 0.0
+    for i in range(4):
+        # cumsum adds from the first term: 0 + a == a, so start from the first step itself
+        sx, sy = seg[i] * cos[i], seg[i] * sin[i]
+        ox, oy = (sx, sy) if i == 0 else (ox + sx, oy + sy)
+        points.append([x + ox, y + oy])
+    hl = geometry.head_length
+    return np.array(points), np.array([x + hl * cos[4], y + hl * sin[4]])

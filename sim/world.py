@@ -5,9 +5,11 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
+from typing import cast
 
 import numpy as np
 
+from sim import collision_kernel
 from sim.obstacles import Obstacle, ray_segment_hits
 from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry, head_tip, joint_positions
 from sim.scene import Scene
@@ -187,6 +189,8 @@ class World:
         ox, oy = float(origin[0]), float(origin[1])
         reach = (oy - b.ymin, b.xmax - ox, b.ymax - oy, ox - b.xmin)  # the four edges in order
         close = [k for k in range(4) if not reach[k] > max_range]
+        if collision_kernel.AVAILABLE and dirs.ndim == 2:
+            return self._ray_cast_compiled(origin, dirs, max_range, close)
         if close:
             walls = ray_segment_hits(origin, dirs, corners[close], following[close]).min(axis=-1)
         else:
@@ -204,6 +208,35 @@ class World:
         what = np.where(dist <= max_range, what, -2)
         return np.minimum(dist, max_range), what
 
+    def _ray_cast_compiled(
+        self, origin: Array, dirs: Array, max_range: float, close: list[int]
+    ) -> tuple[Array, Array]:
+        """``ray_cast`` through the compiled kernel (circles' distances still from numpy)."""
+        corners, following = self._walls
+        near = self._near_point(origin, max_range)
+        scene = self._scene(near)
+        if scene.circle_index.size:
+            circle_t = scene.circle_ray_cast(origin, dirs)
+        else:
+            circle_t = np.zeros((dirs.shape[0], 0))
+        dist = np.empty(dirs.shape[0])
+        what = np.empty(dirs.shape[0], dtype=np.int64)
+        collision_kernel.ray_cast(
+            np.asarray(origin, dtype=float),
+            np.ascontiguousarray(dirs, dtype=float),
+            float(max_range),
+            corners[close],
+            following[close],
+            np.array(near, dtype=np.int64),
+            scene.kind,
+            circle_t,
+            scene.edge_a,
+            scene.edge_b,
+            dist,
+            what,
+        )
+        return dist, cast(Array, what)  # integer indices, typed as ray_cast declares them
+
     def gap(self, fp: Footprint) -> float:
         """Smallest gap between a footprint and any obstacle or wall (0 if touching)."""
         ends = np.concatenate([fp.starts, fp.ends])
@@ -217,6 +250,23 @@ class World:
     def free_within(self, fp: Footprint, distance: float) -> bool:
         """Whether ``distance <= gap(fp)``, measuring only obstacles that could decide it
         (those whose bounding boxes come within ``distance`` + the largest radius)."""
+        if collision_kernel.AVAILABLE and fp.starts.ndim == 2:
+            scene = self._scene(tuple(range(len(self.obstacles))))
+            b = self.bounds
+            gap: float = collision_kernel.gap(
+                fp.starts,
+                fp.ends,
+                fp.radii,
+                np.array([b.xmin, b.xmax, b.ymin, b.ymax]),
+                distance + float(np.max(fp.radii)),
+                scene.boxes,
+                scene.kind,
+                scene.centres,
+                scene.radii,
+                scene.edge_a,
+                scene.edge_b,
+            )
+            return distance <= max(gap, 0.0)
         ends = np.concatenate([fp.starts, fp.ends])
         gap = float(np.min(self.bounds.wall_clearance(ends) - np.concatenate([fp.radii, fp.radii])))
         near = self._near(fp, distance + float(np.max(fp.radii)))

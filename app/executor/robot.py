@@ -150,14 +150,18 @@ class SimRobot:
 
     def _observation(self, readings: SensorReadings) -> Observation:
         pose = readings.pose
-        origin = head_tip(pose, self.sim.geometry)
+        if readings.origin is not None:
+            at = readings.origin
+        else:
+            origin = head_tip(pose, self.sim.geometry)
+            at = (float(origin[0]), float(origin[1]))
         forward = float(pose[2]) + math.pi
         ranges = []
         for sensor in self.sim.sensors.range_sensors:
             d = readings.ranges[sensor.name]
             hit = not math.isnan(d) and d < sensor.max_range
             obs = RangeObservation(
-                origin=(float(origin[0]), float(origin[1])),
+                origin=at,
                 angle=forward + sensor.angle,
                 fov=sensor.fov,
                 max_range=sensor.max_range,

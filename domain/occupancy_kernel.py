@@ -1,0 +1,284 @@
+"""Compiled (numba) kernels of the sensed layer's update: beams swept, arcs hit, evidence applied.
+
+``SensedLayer.integrate`` in numpy is a few dozen calls on a few hundred cells per tick, most
+of a tick's cost. These kernels do the same update in two compiled loops and give the same
+numbers, value for value: every float is computed by the same operations in the same order
+(no fast-math, so no fused multiply-adds), the range likelihoods are summed in sample order as
+``np.bincount`` sums them, and a hit's evidence is normalised by numpy's pairwise summation
+(``_pairwise_sum``). The transcendental functions stay in numpy (the ray directions' cos/sin and
+the occupancy probabilities' exp): numpy's SIMD versions may round differently from LLVM's.
+``tests/domain/test_occupancy_kernel.py`` holds the kernels to the numpy path.
+
+Without numba (or with ``SCREWSNAKE_KERNELS=numpy``) ``AVAILABLE`` is False and the layer uses
+its numpy path.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from sim.kernel_setting import kernel_setting
+from sim.robot import Array
+
+try:  # numba is a dependency, but the numpy path must keep working without it
+    import numba
+except ImportError:  # pragma: no cover - exercised by installs without numba
+    numba = None  # type: ignore[assignment]
+
+AVAILABLE = numba is not None and kernel_setting() != "numpy"
+
+Ints = NDArray[np.int64]
+
+
+def _jit(fn: Any) -> Any:
+    """Compile ``fn`` with numba (cached on disk) when it is available, else leave it Python."""
+    if numba is None:  # pragma: no cover
+        return fn
+    return numba.njit(cache=True, nogil=True)(fn)
+
+
+@_jit
+def _pairwise_sum(a: Array, lo: int, n: int) -> float:  # pragma: no cover - compiled
+    """``np.sum(a[lo:lo + n])`` with numpy's own pairwise order (8 accumulators per block of 128)."""
+    if n < 8:
+        res = 0.0
+        for i in range(n):
+            res += a[lo + i]
+        return res
+    if n <= 128:
+        r0, r1, r2, r3 = a[lo], a[lo + 1], a[lo + 2], a[lo + 3]
+        r4, r5, r6, r7 = a[lo + 4], a[lo + 5], a[lo + 6], a[lo + 7]
+        i = 8
+        while i < n - (n % 8):
+            r0 += a[lo + i]
+            r1 += a[lo + i + 1]
+            r2 += a[lo + i + 2]
+            r3 += a[lo + i + 3]
+            r4 += a[lo + i + 4]
+            r5 += a[lo + i + 5]
+            r6 += a[lo + i + 6]
+            r7 += a[lo + i + 7]
+            i += 8
+        res = ((r0 + r1) + (r2 + r3)) + ((r4 + r5) + (r6 + r7))
+        while i < n:
+            res += a[lo + i]
+            i += 1
+        return float(res)
+    n2 = n // 2
+    n2 -= n2 % 8
+    return float(_pairwise_sum(a, lo, n2) + _pairwise_sum(a, lo + n2, n - n2))
+
+
+@_jit
+def _cell(x: float, y: float, ox: float, oy: float, res: float, nx: int, ny: int) -> int:
+    """Flat index of the cell holding (x, y) as ``Grid.locate`` finds it; -1 off the grid."""
+    i = int(np.floor((x - ox) / res))
+    j = int(np.floor((y - oy) / res))
+    if i < 0 or i >= nx or j < 0 or j >= ny:
+        return -1
+    return i * ny + j
+
+
+@_jit
+def sweep_and_clear(  # pragma: no cover - compiled
+    log_odds: Array,
+    grid: Array,  # (ox, oy, res)
+    shape: Ints,  # (nx, ny)
+    cos: Array,  # the beams' sweep directions
+    sin: Array,
+    arc_cos: Array,  # the hits' arc directions
+    arc_sin: Array,
+    beams: Array,  # [K, 2]: origin x, y of every valid reading
+    swept: Ints,  # [K, 3]: first direction, directions, ranges (0: the beam clears nothing)
+    sweep_step: float,
+    hits: Ints,  # [H, 4]: reading, first direction, directions, range samples
+    hit_range: Array,  # [H, 3]: measured range, noise σ, first z index
+    z_all: Array,
+    w_all: Array,
+    log_odds_free: float,
+    log_odds_min: float,
+    mark: Ints,  # scratch, one per cell, all -1 between calls
+    acc: Array,  # scratch, one per cell, all 0 between calls
+) -> tuple[Ints, Array, Ints, Ints]:
+    """The clearing half: find each hit's arc cells (sorted, with summed likelihoods), then clear
+    every cell each beam swept (once per beam, not the beam's own arc cells) by
+    ``log_odds_free`` per beam, clamped at ``log_odds_min``.
+
+    Returns the arc cells of all hits concatenated, their likelihoods, each hit's first arc
+    cell (``[H + 1]`` bounds), and the cleared cells (sorted, distinct).
+    """
+    ox, oy, res = grid[0], grid[1], grid[2]
+    nx, ny = shape[0], shape[1]
+    n_hits = hits.shape[0]
+    total = 0
+    for h in range(n_hits):
+        total += hits[h, 2] * hits[h, 3]
+    arc = np.empty(total, dtype=np.int64)
+    lik = np.empty(total, dtype=np.float64)
+    bounds = np.zeros(n_hits + 1, dtype=np.int64)
+    n_arc = 0
+    for h in range(n_hits):
+        start = n_arc
+        d0, nd, nz = hits[h, 1], hits[h, 2], hits[h, 3]
+        x0, y0 = beams[hits[h, 0], 0], beams[hits[h, 0], 1]
+        dist, sigma, z0 = hit_range[h, 0], hit_range[h, 1], int(hit_range[h, 2])
+        for zi in range(nz):
+            rho = max(dist + sigma * z_all[z0 + zi], 0.0)
+            w = w_all[z0 + zi]
+            for di in range(nd):
+                c = _cell(
+                    x0 + rho * arc_cos[d0 + di], y0 + rho * arc_sin[d0 + di], ox, oy, res, nx, ny
+                )
+                if c < 0:
+                    continue
+                if mark[c] != h:
+                    mark[c] = h
+                    arc[n_arc] = c
+                    n_arc += 1
+                    acc[c] = 0.0 + w  # as bincount: sums start at zero
+                else:
+                    acc[c] += w
+        arc[start:n_arc] = np.sort(arc[start:n_arc])
+        for m in range(start, n_arc):
+            lik[m] = acc[arc[m]]
+            acc[arc[m]] = 0.0
+            mark[arc[m]] = -1
+        bounds[h + 1] = n_arc
+    # Clearing: each beam sweeps its cells once; its own arc cells are not cleared by it.
+    n_beams = beams.shape[0]
+    samples = 0
+    for k in range(n_beams):
+        samples += swept[k, 1] * swept[k, 2]
+    cleared = np.empty(samples, dtype=np.int64)
+    n_cleared = 0
+    counts = np.empty(samples, dtype=np.int64)
+    hit_of = np.full(n_beams, -1, dtype=np.int64)
+    for h in range(n_hits):
+        hit_of[hits[h, 0]] = h
+    own = n_hits  # marks above the hit indices: this beam's own arc cells
+    for k in range(n_beams):
+        h = hit_of[k]
+        if h >= 0:
+            for m in range(bounds[h], bounds[h + 1]):
+                mark[arc[m]] = own + 2 * k
+        seen = own + 2 * k + 1
+        d0, nd, nr = swept[k, 0], swept[k, 1], swept[k, 2]
+        x0, y0 = beams[k, 0], beams[k, 1]
+        for ri in range(nr):
+            rho = ri * sweep_step
+            for di in range(nd):
+                c = _cell(x0 + rho * cos[d0 + di], y0 + rho * sin[d0 + di], ox, oy, res, nx, ny)
+                if c < 0 or mark[c] == seen or mark[c] == own + 2 * k:
+                    continue
+                mark[c] = seen
+                if acc[c] == 0.0:
+                    cleared[n_cleared] = c
+                    n_cleared += 1
+                acc[c] += 1.0  # a count, exact in floating point
+    cells = np.sort(cleared[:n_cleared])
+    for m in range(n_cleared):
+        c = cells[m]
+        counts[m] = int(acc[c])
+        acc[c] = 0.0
+    for k in range(n_beams):  # forget the marks: they are set only on swept and arc cells
+        h = hit_of[k]
+        if h >= 0:
+            for m in range(bounds[h], bounds[h + 1]):
+                mark[arc[m]] = -1
+    for m in range(n_cleared):
+        mark[cells[m]] = -1
+    for m in range(n_cleared):
+        c = cells[m]
+        log_odds[c] = max(log_odds[c] + counts[m] * log_odds_free, log_odds_min)
+    return arc[:n_arc], lik[:n_arc], bounds, cells
+
+
+@_jit
+def share_and_mark(  # pragma: no cover - compiled
+    log_odds: Array,
+    occupied: NDArray[np.bool_],
+    arc: Ints,
+    lik: Array,
+    bounds: Ints,
+    p: Array,  # per arc cell: 1 where known geometry explains it, else the occupancy probability
+    explained: NDArray[np.bool_],
+    narrow: NDArray[np.bool_],  # per hit: the cone's arc at the hit is at most a cell wide
+    cleared: Ints,
+    log_odds_hit: float,
+    dominant_share: float,
+    log_odds_max: float,
+    ambiguous_ceiling: float,
+    threshold: float,
+    sure_acc: Array,  # scratch, one per cell, all 0 between calls
+    vague_acc: Array,  # scratch, one per cell, all 0 between calls
+    mark: Ints,  # scratch, one per cell, all -1 between calls
+) -> tuple[Ints, Ints]:
+    """The marking half: share each hit's evidence across its arc cells, apply sure shares (up
+    to ``log_odds_max``) then vague ones (up to ``ambiguous_ceiling``), threshold the cells
+    touched. Returns the cells that became occupied and those that ceased to be (sorted)."""
+    n = arc.size
+    weighted = np.empty(n, dtype=np.float64)
+    for m in range(n):
+        weighted[m] = lik[m] * p[m]
+    sure_cells = np.empty(n, dtype=np.int64)
+    vague_cells = np.empty(n, dtype=np.int64)
+    n_sure = 0
+    n_vague = 0
+    for h in range(bounds.size - 1):
+        lo, hi = bounds[h], bounds[h + 1]
+        total = _pairwise_sum(weighted, lo, hi - lo)
+        for m in range(lo, hi):
+            if explained[m]:
+                continue
+            share = weighted[m] / total
+            c = arc[m]
+            if share > dominant_share and narrow[h]:
+                if mark[c] != 1 and mark[c] != 3:
+                    sure_cells[n_sure] = c
+                    n_sure += 1
+                    mark[c] = 1 if mark[c] < 0 else 3
+                    sure_acc[c] = 0.0 + log_odds_hit * share
+                else:
+                    sure_acc[c] += log_odds_hit * share
+            else:
+                if mark[c] != 2 and mark[c] != 3:
+                    vague_cells[n_vague] = c
+                    n_vague += 1
+                    mark[c] = 2 if mark[c] < 0 else 3
+                    vague_acc[c] = 0.0 + log_odds_hit * share
+                else:
+                    vague_acc[c] += log_odds_hit * share
+    for m in range(n_sure):
+        c = sure_cells[m]
+        log_odds[c] = min(log_odds[c] + sure_acc[c], log_odds_max)
+        sure_acc[c] = 0.0
+    for m in range(n_vague):
+        c = vague_cells[m]
+        now = log_odds[c]
+        log_odds[c] = max(now, min(now + vague_acc[c], ambiguous_ceiling))
+        vague_acc[c] = 0.0
+    touched = np.concatenate((cleared, sure_cells[:n_sure], vague_cells[:n_vague]))
+    for m in range(n_sure):
+        mark[sure_cells[m]] = -1
+    for m in range(n_vague):
+        mark[vague_cells[m]] = -1
+    touched = np.unique(touched)
+    became = np.empty(touched.size, dtype=np.int64)
+    ceased = np.empty(touched.size, dtype=np.int64)
+    n_became = 0
+    n_ceased = 0
+    for m in range(touched.size):
+        c = touched[m]
+        before = occupied[c]
+        after = log_odds[c] > threshold
+        occupied[c] = after
+        if after and not before:
+            became[n_became] = c
+            n_became += 1
+        elif before and not after:
+            ceased[n_ceased] = c
+            n_ceased += 1
+    return became[:n_became], ceased[:n_ceased]
