@@ -9,9 +9,10 @@ from hypothesis import strategies as st
 
 import sim
 from sim.controls import FixedShape, PeriodicGait
+from sim.kernel_setting import KERNEL_SETTING
 from sim.reference import reference_rollout
 from sim.robot import DEFAULT_GEOMETRY, WELL_CONDITIONED, RobotGeometry
-from sim.rollout import KERNEL_SETTING, RolloutConfig, compiled_kernels, rollout
+from sim.rollout import RolloutConfig, compiled_kernels, rollout
 
 speed = st.floats(-1, 1)
 joint = st.floats(-1.57, 1.57)  # past the clamp too: FixedShape clamps, both kernels see the same
