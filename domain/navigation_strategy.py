@@ -181,10 +181,8 @@ class NavigationStrategy:
                 static=(world.static_clearance_at, world.static_version),
                 previous=remaining,
             )
-            # Past suspected surfaces too when the search cannot get round them in time.
-            again = ("unreachable", "unsolvable") + (("timeout",) if suspected != "none" else ())
-            if plan.status not in again:
-                break
+            if plan.status not in ("unreachable", "unsolvable"):
+                break  # a timeout turns to sense around instead (see ``replan``)
         return plan
 
     def _reshaped(
