@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from domain.clearance_tiers import Tier, tier_clearance, tiers
 from domain.lattice import LatticeSettings, MotionTable, compose, motion_table, relative
 from domain.lattice_pddl import lattice_domain_text
 from domain.lattice_plan import LatticeAction, LatticePlan
@@ -36,12 +37,6 @@ from sim.robot import rotate
 OFF_PLAN = (0.3, math.radians(35))  # further than this from a planned state: replan
 ARRIVE_TRIES = 4  # final approaches to one goal before giving up on the plan
 LOOKAHEAD = 16  # plan steps re-checked against the world model when it changes
-SENSED_INFLATION = 0.05  # metres plans keep beyond what the head saw of a hidden obstacle
-CONTACT_INFLATION = 0.1  # ... and beyond where a bumper touched one (it felt a single point)
-GOAL_UNSUSPECTED = (
-    1.0  # metres around a goal where contacts and suspected surfaces are passed closely
-)
-CONTACT_BARE = 0.02  # ... when no plan exists otherwise: a new touch adds a new contact point
 BACK_OFF = {"front": 0, "rear": 180, "left": 90, "right": 270}  # body angle away from a side
 BACK_OFF_STEPS = 2  # short library translations away from a contact before replanning
 MAX_REPAIRS = 4  # local plan repairs in a row before the whole way is planned again
@@ -163,17 +158,12 @@ class NavigationStrategy:
         world = s.world
         plan = LatticePlan("unsolvable")
         goals = tuple((g.x, g.y) for g in s.goals)
-        # (suspected surfaces kept clear of: everywhere, but near the goals, nowhere; contacts'
-        # inflation), in the order tried
-        tiers: list[tuple[str, float]] = [("none", CONTACT_INFLATION), ("none", CONTACT_BARE)]
-        if np.any(world.suspected()):
-            tiers[:0] = [("all", CONTACT_INFLATION), ("off-goals", CONTACT_INFLATION)]
-        for suspected, grow in tiers:
-            self.clearance = self._clearance(world, suspected, grow, goals)
+        for tier in tiers(bool(np.any(world.suspected()))):
+            self.clearance = tier_clearance(world, tier, goals)
             plan = self.planner.plan(
                 table,
                 self.clearance,
-                (world.version, suspected, grow, goals),
+                (world.version, tier, goals),
                 tuple(float(v) for v in pose),
                 s.goals,
                 s.ordered,
@@ -200,7 +190,7 @@ class NavigationStrategy:
             (name for name in self.library.lattice_shapes() if name != table.shape),
             key=lambda name: float(np.max(np.abs(np.asarray(SHAPES[name].joints) - here))),
         )
-        clearance = self._clearance(s.world, "none")
+        clearance = tier_clearance(s.world, Tier("none"))
         for name in others:
             joints = tuple(float(v) for v in SHAPES[name].joints)
             other = self.table_for(name, (joints[0], joints[1], joints[2]))
@@ -223,35 +213,6 @@ class NavigationStrategy:
             self.plan = plan
             return other
         return None
-
-    @staticmethod
-    def _clearance(
-        world: Any,
-        suspected: str,
-        grow: float = CONTACT_INFLATION,
-        goals: Sequence[tuple[float, float]] = (),
-    ) -> Any:
-        """What plans keep clear of: sensed cells inflated, contacts by ``grow``, suspected
-        surfaces ``"all"``, ``"none"`` or ``"off-goals"``: within a body length of a goal, contacts
-        and suspected surfaces by ``CONTACT_BARE`` only (a goal by a touched wall is where the
-        user wants the robot; kept clear of the wall, only not by the full inflation)."""
-        if suspected != "off-goals" or not goals:
-
-            def clearance(pts: Any) -> Any:
-                return world.inflated_clearance_at(
-                    pts, SENSED_INFLATION, grow, suspected=suspected != "none"
-                )
-
-            return clearance
-        centres = np.asarray(goals, dtype=float)
-
-        def off_goals(pts: Any) -> Any:
-            far = world.inflated_clearance_at(pts, SENSED_INFLATION, grow, suspected=True)
-            near = world.inflated_clearance_at(pts, SENSED_INFLATION, CONTACT_BARE, suspected=True)
-            d = np.linalg.norm(np.asarray(pts)[..., None, :] - centres, axis=-1).min(axis=-1)
-            return np.where(d < GOAL_UNSUSPECTED, near, far)
-
-        return off_goals
 
     def broken(self, situation: Situation) -> Trigger | None:
         """Re-check the next moves' swept footprints whenever the world model changed."""

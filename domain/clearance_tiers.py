@@ -1,0 +1,65 @@
+"""What navigation plans keep clear of, in tiers tried in turn: the sensed world model's
+obstacles inflated by how little is known of them, suspected surfaces (where a touched one
+probably goes on) avoided, then passed closely near the goals, then planned through, and last
+contacts passed only just."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any, Literal
+
+import numpy as np
+
+from sim.robot import Array
+
+SENSED_INFLATION = 0.05  # metres plans keep beyond what the head saw of a hidden obstacle
+CONTACT_INFLATION = 0.1  # ... and beyond where a bumper touched one (it felt a single point)
+CONTACT_BARE = 0.02  # ... when no plan exists otherwise: a new touch adds a new contact point
+GOAL_UNSUSPECTED = (
+    1.0  # metres round a goal where contacts and suspected surfaces are passed closely
+)
+
+Suspected = Literal["all", "off-goals", "none"]
+
+
+@dataclass(frozen=True)
+class Tier:
+    """One way of keeping clear: suspected surfaces ``all`` avoided, avoided ``off-goals``
+    (within ``GOAL_UNSUSPECTED`` of a goal, they and contacts kept only ``CONTACT_BARE`` clear),
+    or ``none``; contacts grown by ``grow`` metres."""
+
+    suspected: Suspected
+    grow: float = CONTACT_INFLATION
+
+
+def tiers(any_suspected: bool) -> list[Tier]:
+    """The tiers in the order a planner tries them."""
+    out = [Tier("none"), Tier("none", CONTACT_BARE)]
+    return [Tier("all"), Tier("off-goals"), *out] if any_suspected else out
+
+
+def tier_clearance(
+    world: Any, tier: Tier, goals: Sequence[tuple[float, float]] = ()
+) -> Callable[[Array], Array]:
+    """The clearance (m) at world points ``[..., 2]`` that plans of this tier keep."""
+    if tier.suspected != "off-goals" or not goals:
+        avoid = tier.suspected != "none"
+
+        def clearance(pts: Array) -> Array:
+            out: Array = world.inflated_clearance_at(
+                pts, SENSED_INFLATION, tier.grow, suspected=avoid
+            )
+            return out
+
+        return clearance
+    centres = np.asarray(goals, dtype=float)
+
+    def off_goals(pts: Array) -> Array:
+        far = world.inflated_clearance_at(pts, SENSED_INFLATION, tier.grow, suspected=True)
+        near = world.inflated_clearance_at(pts, SENSED_INFLATION, CONTACT_BARE, suspected=True)
+        d = np.linalg.norm(np.asarray(pts)[..., None, :] - centres, axis=-1).min(axis=-1)
+        out: Array = np.where(d < GOAL_UNSUSPECTED, near, far)
+        return out
+
+    return off_goals
