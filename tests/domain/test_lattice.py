@@ -230,3 +230,17 @@ def test_motions_kept_between_replans_equal_a_fresh_check_after_a_local_change()
         ok = np.zeros(len(STRAIGHT.motions), dtype=bool)
         ok[[m for _, m in fresh.valid_motions(key)]] = True
         assert np.array_equal(kept, ok), key
+
+
+def test_the_distance_map_does_not_leak_through_a_thin_wall_beside_the_goal() -> None:
+    # A 0.1 m wall with the goal 0.16 m beyond it: from just the other side of the wall the
+    # way goes round its end, though the goal is within the body's reach of there.
+    wall = [rectangle(1.5, -0.5, 0.1, 2.5)]
+    p, world, _ = plan(Bounds(-3, 3, -3, 3), wall, (-2.0, -2.0, 0.0), [(1.71, -0.5)])
+    assert STRAIGHT is not None
+    goal = LegGoal(0, 1.71, -0.5, 0.1)
+    dist = p.distances(STRAIGHT, world.clearance_at, world.version, goal)
+    behind = dist[p.grid.cell(1.3, -0.5)]
+    beside = dist[p.grid.cell(1.9, -0.5)]
+    assert beside < 0.3
+    assert behind > 1.5  # round the wall's end, 1.25 m away, and back
