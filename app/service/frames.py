@@ -41,21 +41,30 @@ class StateFrame(Frame):
     shape: str = Field(description="the body shape the joints are classified as")
 
 
-class StatusEvent(Frame):
-    """The mission entered a status (also written to its transitions)."""
+class EventFrame(Frame):
+    """Something that happened in the mission, told apart by its ``kind``."""
 
     type: Literal["event"]
+
+
+class TimedEvent(EventFrame):
+    """An event at a model time."""
+
+    t: float = Field(description="model seconds")
+
+
+class StatusEvent(EventFrame):
+    """The mission entered a status (also written to its transitions)."""
+
     kind: Literal["status"]
     status: MissionStatus = Field(description="the status entered")
     reason: str = Field(default="", description="why (a trigger kind, a failure, a request)")
 
 
-class ReplanEvent(Frame):
+class ReplanEvent(TimedEvent):
     """A replan happened: sent once, after the `replanning` status and before its `plan`."""
 
-    type: Literal["event"]
     kind: Literal["replan"]
-    t: float = Field(description="model seconds")
     trigger: str = Field(description="the typed trigger's kind (see ReplanOut)")
     detail: dict[str, Any] = Field(description="the trigger's fields")
     latency_ms: float = Field(description="planning time, wall milliseconds")
@@ -65,12 +74,10 @@ class ReplanEvent(Frame):
     version: int = Field(description="the plan version this replan made")
 
 
-class DeformEvent(Frame):
+class DeformEvent(TimedEvent):
     """The joint sensors found the body in another shape than commanded."""
 
-    type: Literal["event"]
     kind: Literal["deform"]
-    t: float = Field(description="model seconds")
     joints: list[float] = Field(description="the sensed joint angles, radians")
     shape: str = Field(description="the library shape they are classified as")
     coverage: dict[str, Any] | None = Field(
@@ -82,62 +89,50 @@ class DeformEvent(Frame):
     )
 
 
-class ShapeChangeEvent(Frame):
+class ShapeChangeEvent(TimedEvent):
     """The plan or chain commanded another body shape (a shape change as an action)."""
 
-    type: Literal["event"]
     kind: Literal["shape_change"]
-    t: float = Field(description="model seconds")
     shape: str = Field(description="the library shape the body takes")
     previous: str = Field(description="the shape it had")
 
 
-class CollisionEvent(Frame):
+class CollisionEvent(TimedEvent):
     """A bumper fired."""
 
-    type: Literal["event"]
     kind: Literal["collision"]
-    t: float = Field(description="model seconds")
     part: int = Field(description="0 the head, 1..4 the screw units")
     side: str = Field(description="front, rear, left or right")
     at: list[float] | None = Field(default=None, description="where it was felt [x, y], metres")
 
 
-class GoalReachedEvent(Frame):
+class GoalReachedEvent(TimedEvent):
     """A goal was reached."""
 
-    type: Literal["event"]
     kind: Literal["goal_reached"]
-    t: float = Field(description="model seconds")
     goal: int = Field(description="the goal's index, as posted")
     error: float = Field(description="distance from the goal, metres")
 
 
-class ObstacleSensedEvent(Frame):
+class ObstacleSensedEvent(TimedEvent):
     """Range sensors marked new occupied cells in the world model."""
 
-    type: Literal["event"]
     kind: Literal["obstacle_sensed"]
-    t: float = Field(description="model seconds")
     cells: int = Field(description="how many 0.05 m cells became occupied")
 
 
-class DropoutEvent(Frame):
+class DropoutEvent(TimedEvent):
     """Sensors went silent (a mission event)."""
 
-    type: Literal["event"]
     kind: Literal["dropout"]
-    t: float = Field(description="model seconds")
     sensors: list[str] = Field(description="the silent sensors")
     duration: float = Field(description="for how long, model seconds")
 
 
-class UpdateEvent(Frame):
+class UpdateEvent(TimedEvent):
     """A live update (POST /missions/{id}/goals, /obstacles, /pause, /resume) took effect."""
 
-    type: Literal["event"]
     kind: Literal["update"]
-    t: float = Field(description="model seconds")
     update: str = Field(description="add_goal, remove_goal, add_obstacle, pause or resume")
     detail: dict[str, Any] = Field(description="the update's fields (goal index, obstacle)")
 
