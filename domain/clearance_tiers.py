@@ -56,10 +56,16 @@ def tier_clearance(
     centres = np.asarray(goals, dtype=float)
 
     def off_goals(pts: Array) -> Array:
-        far = world.inflated_clearance_at(pts, SENSED_INFLATION, tier.grow, suspected=True)
-        near = world.inflated_clearance_at(pts, SENSED_INFLATION, CONTACT_BARE, suspected=True)
-        d = np.linalg.norm(np.asarray(pts)[..., None, :] - centres, axis=-1).min(axis=-1)
-        out: Array = np.where(d < GOAL_UNSUSPECTED, near, far)
+        pts = np.asarray(pts, dtype=float)
+        out: Array = np.array(
+            world.inflated_clearance_at(pts, SENSED_INFLATION, tier.grow, suspected=True),
+            dtype=float,
+        )
+        close = np.linalg.norm(pts[..., None, :] - centres, axis=-1).min(axis=-1) < GOAL_UNSUSPECTED
+        if np.any(close):  # the second lookup only where it decides
+            out[close] = world.inflated_clearance_at(
+                pts[close], SENSED_INFLATION, CONTACT_BARE, suspected=True
+            )
         return out
 
     return off_goals

@@ -173,6 +173,21 @@ class MotionTable:
         )
 
     # -- poses --------------------------------------------------------------------------------
+    @cached_property
+    def longest_step(self) -> float:
+        """The longest straight translation among the motions, metres (at least 1 mm): the
+        unit the lattice heuristics count moves in."""
+        step = max(
+            (float(np.hypot(*m.end[:2])) for m in self.motions if abs(m.end[2]) < 1e-3),
+            default=0.25,
+        )
+        return max(step, 1e-3)
+
+    @cached_property
+    def largest_turn(self) -> float:
+        """The largest change of heading of one motion, radians."""
+        return max((abs(float(m.end[2])) for m in self.motions), default=math.pi)
+
     def heading(self, k: int) -> float:
         return k * self.settings.step
 

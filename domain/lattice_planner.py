@@ -272,11 +272,7 @@ class LatticePlanner:
         state seen (by the lattice heuristic) is returned as a ``partial`` plan: the robot
         goes there, senses more, and plans again."""
         t0 = time.monotonic()
-        step = max(
-            (float(np.hypot(*m.end[:2])) for m in task.table.motions if abs(m.end[2]) < 1e-3),
-            default=0.25,
-        )
-        lattice_h = LatticeHeuristic(task, distances, max(step, 1e-3))
+        lattice_h = LatticeHeuristic(task, distances, task.table.longest_step)
         try:
             if self.heuristic == "lattice":
                 h: Any = lattice_h

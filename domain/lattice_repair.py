@@ -1,11 +1,11 @@
 """Repairs the remaining plan around a local change instead of planning the whole way again.
 
-A replan after a local change (an obstacle sensed ahead, a contact) mostly finds the old plan
-still good except near the change. The repair checks the remaining moves' swept footprints
-against the new world model in one vectorised query, and if some are blocked, searches a
-detour with pyperplan's search from a state before the first blocked move (or from the robot's
-state, if it is off the plan) to the exact lattice state a few moves after the last blocked one,
-inside a window of cells around them. Its heuristic is a geodesic distance map of the window
+A replan after a local change (an obstacle the range sensors found ahead) mostly finds the old
+plan still good except near the change. The repair checks the remaining moves' swept
+footprints against the new world model in one vectorised query, and if some are blocked,
+searches a detour with pyperplan's search from a state before the first blocked move (or from
+the robot's state, if it is off the plan) to any of the old plan's states a few moves after the
+last blocked one, inside a window of cells around them. Its heuristic is a geodesic distance map of the window
 alone, so a repair costs what the change's neighbourhood costs, not what the arena does (the
 purpose of D* Lite / LPA*; here the search itself stays pyperplan's). Whatever the repair
 cannot do (a window too large, a goal visit inside the blocked part, no detour within its
@@ -166,7 +166,6 @@ class Repair:
     actions: list[LatticeAction]
     graph: LatticeGraph
     expansions: int = 0
-    detour: int = 0  # moves searched anew (0: the old plan was still free as it was)
 
     @property
     def order(self) -> list[int]:
@@ -272,7 +271,7 @@ class PlanRepairer:
             f"repaired: a detour of {len(detour)} moves replaces {rest - leave} planned steps "
             f"({len(task.edges)} states expanded); the rest of the plan is kept"
         )
-        return Repair(actions, graph, task.expansions, len(detour))
+        return Repair(actions, graph, task.expansions)
 
     @staticmethod
     def _visits_goals(steps: Sequence[PlanStep], goals: Sequence[LegGoal], ordered: bool) -> bool:
@@ -336,13 +335,9 @@ class PlanRepairer:
         )
         if not math.isfinite(dist[si - wi.start, sj - wj.start]):
             return None
-        step = max(
-            (float(np.hypot(*m.end[:2])) for m in table.motions if abs(m.end[2]) < 1e-3),
-            default=0.25,
-        )
-        turn = max((abs(float(m.end[2])) for m in table.motions), default=math.pi)
+        heuristic = RejoinHeuristic(task, dist, table.longest_step, table.largest_turn)
         try:
-            plan = self.search(task, RejoinHeuristic(task, dist, max(step, 1e-3), turn))
+            plan = self.search(task, heuristic)
         except SearchStopped:
             return None
         return None if plan is None else [op.name for op in plan]

@@ -100,9 +100,16 @@ class NavigationStrategy:
         # range sensors found on the way (a contact says the old plan ran along something
         # unseen: it is planned again whole), and after a few in a row, the whole way again.
         remaining: list[LatticeAction] = []
-        usable = self.plan and self.plan.solved and not self.plan.partial and table is self.table
-        if usable and self.plan and isinstance(trigger, PathBlocked) and self.repairs < MAX_REPAIRS:
-            remaining = self.plan.actions[self.index :]
+        last = self.plan
+        if (
+            last is not None
+            and last.solved
+            and not last.partial
+            and table is self.table
+            and isinstance(trigger, PathBlocked)
+            and self.repairs < MAX_REPAIRS
+        ):
+            remaining = last.actions[self.index :]
         self.running, self.index, self.arrive_tries = None, 0, 0
         if table is None:
             self.plan = LatticePlan(
