@@ -142,8 +142,10 @@ class WorldModel:
             self.version += 1
 
     def suspected(self) -> NDArray[np.bool_]:
-        """The suspected-surface layer (a copy)."""
-        return self._suspected.copy()
+        """Suspected surfaces: where a touched one probably goes on, and never-observed cells
+        near what the range sensors found (a new array)."""
+        out: NDArray[np.bool_] = self._suspected | self._continuation()
+        return out
 
     def add_known(self, obstacle: Obstacle) -> None:
         """Add a known obstacle to the static layer (exact distances within ``max_clearance``)."""
@@ -222,7 +224,7 @@ class WorldModel:
         lies beyond. With ``suspected``, suspected-surface cells count as contact cells.
         Cached per inflation until ``version`` changes."""
         grow_contact = inflation if contact_inflation is None else contact_inflation
-        suspect = suspected and self._suspected_any
+        suspect = suspected and (self._suspected_any or self._continuation_any())
         key = ("inflated", inflation, grow_contact, suspect)
         grid = self._cached(key)
         if grid is None:
@@ -232,7 +234,8 @@ class WorldModel:
                 sensed = np.maximum(self._sensed_map.get(self._sensed.occupied) - inflation, 0.0)
                 if suspect:  # suspected cells come and go with beams: transformed afresh
                     cap = self.settings.max_clearance
-                    near = clearance_map(self._contact | self._suspected, self.grid.resolution, cap)
+                    marked = self._contact | self._suspected | self._continuation()
+                    near = clearance_map(marked, self.grid.resolution, cap)
                 else:
                     near = self._contact_map.get(self._contact)
                 touched = np.maximum(near - grow_contact, 0.0)
@@ -326,7 +329,7 @@ class WorldModel:
             "version": self.version,
             "sensed": cells(self._sensed.occupied),
             "contact": cells(self._contact),
-            "suspected": cells(self._suspected),
+            "suspected": cells(self.suspected()),
         }
 
     # --- internals ----------------------------------------------------------------------------
@@ -354,6 +357,27 @@ class WorldModel:
             )
         out: Array = cached
         return out
+
+    def _continuation(self) -> NDArray[np.bool_]:
+        """Never-observed cells within ``sensed_continuation`` of a sensed cell (cached until
+        ``version`` changes)."""
+        cached = self._cached("continuation")
+        if cached is None:
+            reach = self.settings.sensed_continuation
+            if reach <= 0 or not np.any(self._sensed.occupied):
+                cached = np.zeros(self.grid.shape, dtype=bool)
+            else:
+                near = self._sensed_map.get(self._sensed.occupied) <= reach
+                cached = near & (self._sensed.log_odds == 0.0) & ~self._contact
+            cached = self._store("continuation", cached)
+        out: NDArray[np.bool_] = cached
+        return out
+
+    def _continuation_any(self) -> bool:
+        cached = self._cached("continuation-any")
+        if cached is None:
+            cached = self._cache["continuation-any"] = bool(np.any(self._continuation()))
+        return bool(cached)
 
     def _interpolate(self, grid: Array, pts: Array) -> Array:
         """Bilinear between cell centres (nearest beyond the outer centres)."""
