@@ -184,6 +184,16 @@ class MotionTable:
         return max(step, 1e-3)
 
     @cached_property
+    def reach(self) -> float:
+        """How far any motion's swept sample points lie from its start centroid, metres."""
+        return max(float(np.max(np.linalg.norm(p, axis=-1))) for p in self.points)
+
+    @cached_property
+    def largest_need(self) -> float:
+        """The largest clearance any swept sample point needs (before the margin), metres."""
+        return max(float(np.max(n)) for n in self.needs)
+
+    @cached_property
     def largest_turn(self) -> float:
         """The largest change of heading of one motion, radians."""
         return max((abs(float(m.end[2])) for m in self.motions), default=math.pi)

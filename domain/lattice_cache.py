@@ -13,22 +13,40 @@ import math
 
 import numpy as np
 from numpy.typing import NDArray
+from pyperplan.task import Operator
 from scipy import ndimage
 
 from domain.lattice import LatticeGrid, MotionTable
+from domain.lattice_states import LatticeState, StatePool
 from sim.robot import Array
+
+MOVES_LIMIT = 40_000  # states whose successors are kept (~4 KB each) before starting afresh
+Moves = tuple[list[tuple[Operator, LatticeState]], list[tuple[int, str]]]  # successors, edges
 
 
 class MotionCache:
     """Free motions per lattice state number for one shape and margin."""
 
-    def __init__(self, grid: LatticeGrid, table: MotionTable, margin: float) -> None:
+    def __init__(
+        self,
+        grid: LatticeGrid,
+        table: MotionTable,
+        margin: float,
+        states: StatePool | None = None,
+        moves_limit: int = MOVES_LIMIT,
+    ) -> None:
+        if moves_limit < 1:
+            raise ValueError("moves_limit: at least 1 state")
         self.grid, self.table, self.margin = grid, table, margin
         self.free: dict[int, NDArray[np.bool_]] = {}
+        # Successors of the states in ``free`` (from the same verdicts), built on demand.
+        self.moves: dict[int, Moves] = {}
+        self.moves_limit = moves_limit
+        self.states = states if states is not None else StatePool()
         # Clearance above this decides nothing: every motion needs less at every point.
-        self.cap = max(float(np.max(n)) for n in table.needs) + margin + grid.settings.resolution
+        self.cap = table.largest_need + margin + grid.settings.resolution
         # A motion's points lie within this of its start centroid (plus bilinear support).
-        self.reach = max(float(np.max(np.linalg.norm(p, axis=-1))) for p in table.points)
+        self.reach = table.reach
         self._capped: Array | None = None
         self.version: object = None
 
@@ -42,6 +60,7 @@ class MotionCache:
         old, self._capped = self._capped, capped
         if old is None or not self.free:
             self.free.clear()
+            self.moves.clear()
             return
         changed = np.abs(capped - old) > 1e-9
         if np.any(changed):
@@ -78,5 +97,13 @@ class MotionCache:
         inside = (li >= 0) & (li < near.shape[0]) & (lj >= 0) & (lj < near.shape[1])
         hit = np.zeros(numbers.size, dtype=bool)
         hit[inside] = near[li[inside], lj[inside]]
+        moves = self.moves
         for number in numbers[hit].tolist():
             del self.free[number]
+            moves.pop(number, None)
+
+    def keep_moves(self, number: int, moves: Moves) -> None:
+        """Keep the successors built for a state whose free motions this cache holds."""
+        if len(self.moves) >= self.moves_limit:
+            self.moves.clear()  # built again when needed: only speed is lost
+        self.moves[number] = moves

@@ -24,7 +24,8 @@ from pyperplan.heuristics.heuristic_base import Heuristic
 from pyperplan.task import Operator, Task
 
 from domain.lattice import Key, LatticeGrid, MotionTable
-from domain.lattice_cache import MotionCache
+from domain.lattice_cache import MotionCache, Moves
+from domain.lattice_states import LatticeState, StatePool
 from domain.pyperplan_adapter import CancelFlag, Fact, stop_if_due
 from sim.robot import Array
 
@@ -75,6 +76,7 @@ class LatticeTask(Task):  # type: ignore[misc]
         margin: float,
         start_margin: float,
         goal_index: int = 0,
+        states: StatePool | None = None,
     ) -> None:
         self.grid, self.table, self.clearance = grid, table, clearance
         self.goal, self.reach, self.margin = goal, reach, margin
@@ -87,35 +89,49 @@ class LatticeTask(Task):  # type: ignore[misc]
         self.budget = math.inf  # expansions before the search stops (deterministic, unlike time)
         self.cancel: CancelFlag | None = None
         self.expansions = 0
-        self.edges: dict[
-            int, list[tuple[int, str]]
-        ] = {}  # state -> [(next, primitive's PDDL name)]
+        # state -> [(next, primitive's PDDL name)] (lists shared with the motion cache: read only)
+        self.edges: dict[int, list[tuple[int, str]]] = {}
         self.near: set[int] = set()
-        self._facts: dict[int, Fact] = {}
         self._size = grid.size
-        self.cache: MotionCache | None = None  # free motions kept between replans (not start's)
+        self._cache: MotionCache | None = None  # free motions kept between replans (not start's)
+        self.states = states if states is not None else StatePool()
         self.at_centres: Array | None = None  # clearance at grid.centres, if the planner has it
         start_fact = self.fact(self.start_number)
         super().__init__(
             "lattice",
             {start_fact, self.goal_fact},
-            frozenset([start_fact]),
+            frozenset([start_fact]),  # a plain one: pyperplan's Operator.apply asserts the type
             frozenset([self.goal_fact]),
             [],
         )
 
+    @property
+    def cache(self) -> MotionCache | None:
+        """The free motions (and successors) kept between replans, if any."""
+        return self._cache
+
+    @cache.setter
+    def cache(self, cache: MotionCache | None) -> None:
+        self._cache = cache
+        if cache is not None:
+            self.states = cache.states  # its successors' states are the pool's objects
+
     def fact(self, number: int) -> Fact:
-        f = self._facts.get(number)
-        if f is None:
-            f = self._facts[number] = Fact(f"(at {state_name(number)})", number)
-        return f
+        return self.states.fact(number)
 
     def at(self, state: frozenset[Fact]) -> int | None:
+        if type(state) is LatticeState:
+            return state.number
         size = self._size
         for f in state:
             if f.number < size:
-                return f.number
+                return int(f.number)
         return None
+
+    def goal_reached(self, state: frozenset[Fact]) -> bool:
+        if type(state) is LatticeState:
+            return state.visited
+        return bool(self.goals <= state)
 
     # -- geometry ---------------------------------------------------------------------------
     def is_near(self, key: Key) -> bool:
@@ -147,7 +163,11 @@ class LatticeTask(Task):  # type: ignore[misc]
         t = self.table
         centre = self.grid.centre(i, j)
         margin = self.start_margin if key == self.start_key else self.margin
-        if float(self.clearance(centre[None, :])[0]) >= t.open_clearance + margin:
+        at = self.at_centres  # the same value as clearance(centre), computed once per world
+        here = float(
+            at[i * self.grid.ny + j] if at is not None else self.clearance(centre[None, :])[0]
+        )
+        if here >= t.open_clearance + margin:
             return np.ones(len(t.motions), dtype=bool)  # open space: nothing near enough
         ok_points = self.clearance(centre + t.points[k]) >= t.needs[k] + margin
         out: NDArray[np.bool_] = np.logical_and.reduceat(ok_points, t.segments[k])
@@ -160,31 +180,50 @@ class LatticeTask(Task):  # type: ignore[misc]
         self.expansions += 1
         stop_if_due(self.cancel, self.deadline, self.expansions > self.budget)
         number = self.at(state)
-        if number is None or self.goal_fact in state:
+        if number is None or self.goal_reached(state):
             return []
-        key = self.grid.decode(number)
+        moves, edges = self.moves_from(number)
+        if number not in self.edges:
+            self.edges[number] = edges
+        if not self.is_near(self.grid.decode(number)):
+            return moves  # type: ignore[return-value]  # (read only: shared with the cache)
+        self.near.add(number)
         here = self.fact(number)
-        succ = []
-        if self.is_near(key):
-            self.near.add(number)
-            op = Operator(
-                f"(visit {state_name(number)} g{self.goal_index})", [here], [self.goal_fact], []
-            )
-            succ.append((op, state | {self.goal_fact}))
-        fresh = number not in self.edges
-        edges = self.edges.setdefault(number, [])
-        names = self.table.names
+        op = Operator(
+            f"(visit {state_name(number)} g{self.goal_index})", [here], [self.goal_fact], []
+        )
+        done = LatticeState.of((here, self.goal_fact), number, True)
+        return [(op, done), *moves]
+
+    def moves_from(self, number: int) -> Moves:
+        """The moves out of a state: (operator, next state) for every free motion that leaves
+        the cell or turns, and the same as (next state number, primitive's PDDL name). Kept in
+        the motion cache (except the start's, which keep the start's own margin)."""
+        cache = self._cache
+        cached = cache is not None and number != self.start_number
+        if cached:
+            assert cache is not None
+            entry = cache.moves.get(number)
+            if entry is not None:
+                return entry
+        key = self.grid.decode(number)
+        pool, names = self.states, self.table.names
+        here = pool.fact(number)
         pre = frozenset([here])  # shared by every move out of here (precondition and delete)
-        for nkey, m in self.valid_motions(key):
+        moves: list[tuple[Operator, LatticeState]] = []
+        edges: list[tuple[int, str]] = []
+        for nkey, m in LatticeTask.valid_motions(self, key):
             b = self.grid.encode(nkey)
             if b == number:
                 continue
-            if fresh:
-                edges.append((b, names[m]))
-            after = frozenset([self.fact(b)])
+            after = pool.state(b)
             name = f"(move s{number} s{b} {names[m]})"  # state_name() inlined: a hot loop
-            succ.append((_operator(name, pre, after, pre), after))
-        return succ
+            moves.append((_operator(name, pre, after, pre), after))
+            edges.append((b, names[m]))
+        if cached:
+            assert cache is not None
+            cache.keep_moves(number, (moves, edges))
+        return moves, edges
 
     def ground_all(self) -> None:
         """Enumerate the whole reachable lattice into ``operators`` (for pyperplan's own
@@ -252,13 +291,17 @@ class LatticeHeuristic(Heuristic):  # type: ignore[misc]
 
     def __call__(self, node: Any) -> float:
         state = node.state
-        task = self.task
-        if task.goal_fact in state:
-            return 0.0
-        number = task.at(state)
-        if number is None:
-            return math.inf
-        k, cell = divmod(number, self.plane)  # encode(): (k * nx + i) * ny + j
+        if type(state) is LatticeState:  # the search's own states: no scan for the facts
+            if state.visited:
+                return 0.0
+            number: int | None = state.number
+        else:
+            if self.task.goal_fact in state:
+                return 0.0
+            number = self.task.at(state)
+            if number is None:
+                return math.inf
+        k, cell = divmod(number, self.plane)  # type: ignore[operator]  # encode(): (k * nx + i) * ny + j
         h: float = self.base[cell]
         psi = k * self.turn_step
         way = self.way[cell]
