@@ -1,7 +1,8 @@
 """Footprint-aware 2-D distances on the lattice's cells: the relaxation that decides most
 unreachable goals before any search, the search heuristic and the goal-to-goal distance table.
 
-Dijkstra (scipy's csgraph) over the cells the body centroid can occupy, 8-connected.
+Dijkstra over the cells the body centroid can occupy, 8-connected: a compiled grid search
+(domain/lattice_kernels.py), or scipy's csgraph without numba.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from numpy.typing import NDArray
 from scipy.sparse import coo_matrix, csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from domain import lattice_kernels
 from domain.lattice import LatticeGrid, MotionTable
 from sim.robot import DEFAULT_GEOMETRY, Array
 from sim.world import footprint
@@ -103,6 +105,10 @@ def window_distance_map(
 def geodesic(ok: NDArray[np.bool_], sources: Sequence[tuple[int, int]], r: float) -> Array:
     """Dijkstra distances (m) from the nearest of the cells ``sources`` over the 8-connected cells where ``ok``
     (``[nx, ny]``; ``inf`` where cut off)."""
+    if lattice_kernels.AVAILABLE:
+        ny = ok.shape[1]
+        index = np.array([i * ny + j for i, j in sources], dtype=np.int64)
+        return lattice_kernels.grid_dijkstra(ok, index, r)
     nx, ny = ok.shape
     flat = ok.ravel()
     graph, rows = _topology(nx, ny, r)
