@@ -105,11 +105,10 @@ def window_distance_map(
 def geodesic(ok: NDArray[np.bool_], sources: Sequence[tuple[int, int]], r: float) -> Array:
     """Dijkstra distances (m) from the nearest of the cells ``sources`` over the 8-connected cells where ``ok``
     (``[nx, ny]``; ``inf`` where cut off)."""
-    if lattice_kernels.AVAILABLE:
-        ny = ok.shape[1]
-        index = np.array([i * ny + j for i, j in sources], dtype=np.int64)
-        return lattice_kernels.grid_dijkstra(ok, index, r)
     nx, ny = ok.shape
+    index = [i * ny + j for i, j in sources]
+    if lattice_kernels.AVAILABLE:
+        return lattice_kernels.grid_dijkstra(ok, np.array(index, dtype=np.int64), r)
     flat = ok.ravel()
     graph, rows = _topology(nx, ny, r)
     # The 8-connected graph is built once per grid; edges into or out of blocked cells get an
@@ -118,7 +117,6 @@ def geodesic(ok: NDArray[np.bool_], sources: Sequence[tuple[int, int]], r: float
     weighted = csr_matrix(
         (np.where(blocked, np.inf, graph.data), graph.indices, graph.indptr), shape=graph.shape
     )
-    index = [i * ny + j for i, j in sources]
     dist = dijkstra(weighted, directed=True, indices=index, min_only=True)
     return np.asarray(dist, dtype=float).reshape(nx, ny)
 
