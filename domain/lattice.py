@@ -151,7 +151,7 @@ class MotionTable:
         self.deltas = np.zeros((K, M, 3), dtype=np.int64)
         # Every orientation at once (one batch per motion): each value is computed by the same
         # elementwise operations as one pose at a time, ~20x faster than a loop over bins.
-        psi: Array = np.arange(K) * self.settings.step
+        psi = np.asarray(np.arange(K) * self.settings.step, dtype=np.float64)
         starts = np.concatenate([np.zeros(2) - rotate(self.offset, psi), psi[:, None]], axis=-1)
         self.heads = [(float(x), float(y)) for x, y in starts[:, :2]]
         fp0 = footprint(starts, self.joints, self.geometry)
