@@ -282,12 +282,9 @@ class LatticePlanner:
             else:
                 task.ground_all()  # pyperplan's own heuristics need every operator
                 h = HEURISTICS[self.heuristic](task)
-            with no_cycle_collection():
-                plan = (
-                    SEARCHES[self.search](task, h)
-                    if self.search != "bfs"
-                    else SEARCHES["bfs"](task)
-                )
+            search = SEARCHES[self.search]
+            with no_cycle_collection(), task.search_reached(search):
+                plan = search(task, h) if self.search != "bfs" else search(task)
         except SearchStopped as stop:
             ms = (time.monotonic() - t0) * 1e3
             best = lattice_h.best

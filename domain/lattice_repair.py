@@ -343,7 +343,7 @@ class PlanRepairer:
             return None
         heuristic = RejoinHeuristic(task, dist, table.longest_step, table.largest_turn)
         try:
-            with no_cycle_collection():
+            with no_cycle_collection(), task.search_reached(self.search):
                 plan = self.search(task, heuristic)
         except SearchStopped:
             return None

@@ -15,12 +15,14 @@ longest translation.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 from pyperplan.heuristics.heuristic_base import Heuristic
+from pyperplan.search import astar_search, greedy_best_first_search, weighted_astar_search
 from pyperplan.task import Operator, Task
 
 from domain.lattice import Key, LatticeGrid, MotionTable
@@ -30,6 +32,8 @@ from domain.pyperplan_adapter import CancelFlag, Fact, stop_if_due
 from sim.robot import Array
 
 Clearance = Callable[[Array], Array]  # clearance (m) at world points [N, 2]
+# pyperplan's searches that keep the least g per state and push only improvements
+_A_STAR_FAMILY = (greedy_best_first_search, astar_search, weighted_astar_search)
 
 
 def state_name(number: int) -> str:
@@ -92,6 +96,7 @@ class LatticeTask(Task):  # type: ignore[misc]
         # state -> [(next, primitive's PDDL name)] (lists shared with the motion cache: read only)
         self.edges: dict[int, list[tuple[int, str]]] = {}
         self.near: set[int] = set()
+        self.reached: dict[int, int] | None = None  # least moves to each state, while searching
         self._size = grid.size
         self._cache: MotionCache | None = None  # free motions kept between replans (not start's)
         self.states = states if states is not None else StatePool()
@@ -185,6 +190,16 @@ class LatticeTask(Task):  # type: ignore[misc]
         moves, edges = self.moves_from(number)
         if number not in self.edges:
             self.edges[number] = edges
+        reached = self.reached
+        if reached is not None:  # drop what the search would drop (see ``search_reached``)
+            g = reached[number] + 1
+            kept = []
+            for move in moves:
+                b = move[1].number
+                if reached.get(b, g + 1) > g:
+                    reached[b] = g
+                    kept.append(move)
+            moves = kept
         if not self.is_near(self.grid.decode(number)):
             return moves  # type: ignore[return-value]  # (read only: shared with the cache)
         self.near.add(number)
@@ -194,6 +209,25 @@ class LatticeTask(Task):  # type: ignore[misc]
         )
         done = LatticeState.of((here, self.goal_fact), number, True)
         return [(op, done), *moves]
+
+    @contextmanager
+    def search_reached(self, search: Callable[..., Any]) -> Iterator[None]:
+        """For the duration of a pyperplan A*-family search (``gbf``, ``astar``, ``wastar``):
+        successors the search would drop are not handed out. Those searches keep the least
+        number of moves ``g`` known for every state they met and push a successor only when it
+        is reached in fewer moves; this task keeps the same numbers (the start at 0, every
+        successor handed out at its parent's + 1) and leaves out a successor already reached
+        in as few moves. The search sees the same open list, in the same order, and finds the
+        same plan, without a node and a heuristic evaluation per duplicate (most successors on
+        a lattice). The PDDL export still lists every successor. Other searches get all."""
+        if search not in _A_STAR_FAMILY:
+            yield
+            return
+        self.reached = {self.start_number: 0}
+        try:
+            yield
+        finally:
+            self.reached = None
 
     def moves_from(self, number: int) -> Moves:
         """The moves out of a state: (operator, next state) for every free motion that leaves
