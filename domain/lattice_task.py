@@ -101,6 +101,12 @@ class LatticeTask(Task):  # type: ignore[misc]
         self._cache: MotionCache | None = None  # free motions kept between replans (not start's)
         self.states = states if states is not None else StatePool()
         self.at_centres: Array | None = None  # clearance at grid.centres, if the planner has it
+        self._needs: dict[int, Array] = {}  # per bin: the clearance each point needs + margin
+        # Per bin and motion: the next state's number less the cell's (i * ny + j), as
+        # ``encode`` numbers them: (k' * nx + i + di) * ny + j + dj.
+        K, d = grid.settings.orientations, table.deltas
+        turned = (np.arange(K)[:, None] + d[..., 2]) % K
+        self._targets = turned * (grid.nx * grid.ny) + d[..., 0] * grid.ny + d[..., 1]
         start_fact = self.fact(self.start_number)
         super().__init__(
             "lattice",
@@ -150,31 +156,47 @@ class LatticeTask(Task):  # type: ignore[misc]
         """The motions (indices) whose swept footprint is clear from ``key``, with where they
         lead."""
         i, j, k = key
-        t = self.table
-        d = t.deltas[k]
+        d = self.table.deltas[k]
         ni, nj = i + d[:, 0], j + d[:, 1]
         nk = (k + d[:, 2]) % self.grid.settings.orientations
-        cached = key != self.start_key and self.cache is not None
-        ok = self.cache.free.get(self.grid.encode(key)) if self.cache is not None else None
-        if ok is None or not cached:
+        ok = self.free_mask(key)
+        return [((int(ni[m]), int(nj[m]), int(nk[m])), int(m)) for m in np.flatnonzero(ok)]
+
+    def free_mask(self, key: Key) -> NDArray[np.bool_]:
+        """Per motion: whether its swept footprint is clear from ``key`` and it ends on the
+        grid (kept in the motion cache, except the start's)."""
+        i, j, k = key
+        cache = self._cache
+        cached = cache is not None and key != self.start_key
+        number = self.grid.encode(key)
+        ok = cache.free.get(number) if cache is not None and cached else None
+        if ok is None:
+            d = self.table.deltas[k]
+            ni, nj = i + d[:, 0], j + d[:, 1]
             ok = self._free_motions(key)
             ok &= (ni >= 0) & (ni < self.grid.nx) & (nj >= 0) & (nj < self.grid.ny)
-            if cached and self.cache is not None:
-                self.cache.free[self.grid.encode(key)] = ok
-        return [((int(ni[m]), int(nj[m]), int(nk[m])), int(m)) for m in np.flatnonzero(ok)]
+            if cache is not None and cached:
+                cache.free[number] = ok
+        return ok
 
     def _free_motions(self, key: Key) -> NDArray[np.bool_]:
         i, j, k = key
         t = self.table
         centre = self.grid.centre(i, j)
-        margin = self.start_margin if key == self.start_key else self.margin
+        start = key == self.start_key
+        margin = self.start_margin if start else self.margin
         at = self.at_centres  # the same value as clearance(centre), computed once per world
         here = float(
             at[i * self.grid.ny + j] if at is not None else self.clearance(centre[None, :])[0]
         )
         if here >= t.open_clearance + margin:
             return np.ones(len(t.motions), dtype=bool)  # open space: nothing near enough
-        ok_points = self.clearance(centre + t.points[k]) >= t.needs[k] + margin
+        need = self._needs.get(k) if not start else None
+        if need is None:
+            need = t.needs[k] + margin
+            if not start:
+                self._needs[k] = need
+        ok_points = self.clearance(centre + t.points[k]) >= need
         out: NDArray[np.bool_] = np.logical_and.reduceat(ok_points, t.segments[k])
         return out
 
@@ -240,20 +262,25 @@ class LatticeTask(Task):  # type: ignore[misc]
             entry = cache.moves.get(number)
             if entry is not None:
                 return entry
-        key = self.grid.decode(number)
+        grid = self.grid
+        ny = grid.ny
+        k, cell = divmod(number, ny * grid.nx)
+        i, j = divmod(cell, ny)
+        ok = self.free_mask((i, j, k))
+        targets = self._targets[k][ok] + cell  # next state numbers (see ``__init__``)
         pool, names = self.states, self.table.names
+        states, make = pool.states, _operator
         here = pool.fact(number)
         pre = frozenset([here])  # shared by every move out of here (precondition and delete)
         moves: list[tuple[Operator, LatticeState]] = []
         edges: list[tuple[int, str]] = []
-        for nkey, m in LatticeTask.valid_motions(self, key):
-            b = self.grid.encode(nkey)
+        for b, m in zip(targets.tolist(), np.flatnonzero(ok).tolist(), strict=True):
             if b == number:
                 continue
-            after = pool.state(b)
-            name = f"(move s{number} s{b} {names[m]})"  # state_name() inlined: a hot loop
-            moves.append((_operator(name, pre, after, pre), after))
-            edges.append((b, names[m]))
+            after = states.get(b) or pool.state(b)
+            name = names[m]
+            moves.append((make(f"(move s{number} s{b} {name})", pre, after, pre), after))
+            edges.append((b, name))
         if cached:
             assert cache is not None
             cache.keep_moves(number, (moves, edges))
