@@ -3,9 +3,9 @@
 scipy's csgraph Dijkstra needs the grid as a sparse matrix whose edge weights are rebuilt for
 every map (infinite into blocked cells), a few passes over eight edges per cell in numpy before
 the search starts; on a 20 m arena (160,000 cells) that is most of a distance map's cost. The
-kernel searches the grid directly with an indexed binary heap. A cell's distance is the least
-``dist[u] + w`` over its settled neighbours, each sum the same float operation as scipy's, so
-the maps are the same value for value (``tests/domain/test_lattice_kernels.py`` holds it to
+kernel searches the grid directly with a bucket queue. A cell's distance is the least
+``dist[u] + w`` over its neighbours nearer the sources, each sum the same float operation as
+scipy's, so the maps are the same value for value (``tests/domain/test_lattice_kernels.py`` holds it to
 scipy's). Without numba (or with ``SCREWSNAKE_KERNELS=numpy``) ``AVAILABLE`` is False and the
 planner uses scipy.
 """
@@ -43,67 +43,51 @@ def _dijkstra(  # pragma: no cover - compiled
     diagonal: float,
     dist: Array,
 ) -> None:
-    """Dijkstra from ``sources`` into ``dist`` (filled with inf) with an indexed binary heap."""
+    """Dijkstra from ``sources`` into ``dist`` (filled with inf) with a bucket queue (Dial's):
+    buckets a little narrower than the shortest edge, so no two cells of one bucket can improve
+    each other and a bucket's cells are final in any order; with edges at most ``√2`` of the
+    shortest, only three buckets are ever live (a ring of four)."""
     n = nx * ny
-    heap = np.empty(n, dtype=np.int64)  # cell numbers, ordered by dist
-    pos = np.full(n, -1, dtype=np.int64)  # where a cell sits in the heap (-1: not in it)
+    width = axial * (1.0 - 1e-9)
+    ring = 4
+    buckets = np.empty((ring, n), dtype=np.int64)  # cell numbers, possibly stale entries
+    sizes = np.zeros(ring, dtype=np.int64)
     done = np.zeros(n, dtype=np.bool_)
-    size = 0
     for s in sources:
         if dist[s] == 0.0:
             continue
         dist[s] = 0.0
-        heap[size] = s
-        pos[s] = size
-        size += 1
+        buckets[0, sizes[0]] = s
+        sizes[0] += 1
     di = (1, -1, 0, 0, 1, 1, -1, -1)
     dj = (0, 0, 1, -1, 1, -1, 1, -1)
-    while size > 0:
-        u = heap[0]
-        size -= 1
-        pos[u] = -1
-        done[u] = True
-        if size > 0:  # the last entry to the root, sifted down
-            last = heap[size]
-            k = 0
-            while True:
-                c = 2 * k + 1
-                if c >= size:
-                    break
-                if c + 1 < size and dist[heap[c + 1]] < dist[heap[c]]:
-                    c += 1
-                if dist[heap[c]] < dist[last]:
-                    heap[k] = heap[c]
-                    pos[heap[k]] = k
-                    k = c
-                else:
-                    break
-            heap[k] = last
-            pos[last] = k
-        if not ok[u]:
-            continue  # a blocked source: nothing leaves it
-        ui, uj = u // ny, u % ny
-        du = dist[u]
-        for e in range(8):
-            vi, vj = ui + di[e], uj + dj[e]
-            if vi < 0 or vi >= nx or vj < 0 or vj >= ny:
-                continue
-            v = vi * ny + vj
-            if done[v] or not ok[v]:
-                continue
-            nd = du + (axial if e < 4 else diagonal)
-            if nd < dist[v]:
-                dist[v] = nd
-                k = pos[v]
-                if k < 0:
-                    k = size
-                    size += 1
-                while k > 0:  # sift up
-                    p = (k - 1) // 2
-                    if dist[heap[p]] <= nd:
-                        break
-                    heap[k] = heap[p]
-                    pos[heap[k]] = k
-                    k = p
-                heap[k] = v
-                pos[v] = k
+    current = 0
+    live = sizes[0]
+    while live > 0:
+        b = current % ring
+        while sizes[b] > 0:
+            sizes[b] -= 1
+            live -= 1
+            u = buckets[b, sizes[b]]
+            if done[u] or int(dist[u] / width) != current:
+                continue  # settled already, or moved to an earlier bucket since
+            done[u] = True
+            if not ok[u]:
+                continue  # a blocked source: nothing leaves it
+            ui, uj = u // ny, u % ny
+            du = dist[u]
+            for e in range(8):
+                vi, vj = ui + di[e], uj + dj[e]
+                if vi < 0 or vi >= nx or vj < 0 or vj >= ny:
+                    continue
+                v = vi * ny + vj
+                if done[v] or not ok[v]:
+                    continue
+                nd = du + (axial if e < 4 else diagonal)
+                if nd < dist[v]:
+                    dist[v] = nd
+                    t = int(nd / width) % ring
+                    buckets[t, sizes[t]] = v
+                    sizes[t] += 1
+                    live += 1
+        current += 1
