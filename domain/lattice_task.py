@@ -344,9 +344,12 @@ class LatticeHeuristic(Heuristic):  # type: ignore[misc]
         narrow = at_centres < self.NARROW
         self.turn_step = grid.settings.step
         base = np.maximum(0.0, distances - self.reach) / step + 1.0
-        self.base = np.where(finite, base, math.inf).ravel().tolist()
-        self.narrow = narrow.tolist()
-        self.way = way.ravel().tolist()
+        # Read per cell the first time a search meets it (a search meets few of the cells:
+        # whole-grid lists cost more than the search on a large arena).
+        self.base = np.where(finite, base, math.inf).ravel()
+        self.narrow = narrow.ravel()
+        self.way = way.ravel()
+        self.cells: dict[int, tuple[float, float, bool]] = {}
         self.plane = grid.nx * grid.ny
         self.best: tuple[float, Any] | None = None
 
@@ -363,12 +366,15 @@ class LatticeHeuristic(Heuristic):  # type: ignore[misc]
             if number is None:
                 return math.inf
         k, cell = divmod(number, self.plane)  # type: ignore[operator]  # encode(): (k * nx + i) * ny + j
-        h: float = self.base[cell]
+        at = self.cells.get(cell)
+        if at is None:
+            at = (float(self.base[cell]), float(self.way[cell]), bool(self.narrow[cell]))
+            self.cells[cell] = at
+        h, way, narrow = at
         psi = k * self.turn_step
-        way = self.way[cell]
         # e(ψ) points to the tail: the head leads along ψ + π.
         h += self.HEAD_WEIGHT * abs(math.remainder(psi + math.pi - way, 2 * math.pi)) / math.pi
-        if self.narrow[cell]:
+        if narrow:
             h += self.ALIGN_WEIGHT * abs(math.remainder(psi - way, math.pi)) / (math.pi / 2)
         if self.best is None or h < self.best[0]:
             self.best = (h, node)
