@@ -10,6 +10,7 @@ motion's reach of a cell whose capped clearance changed.
 from __future__ import annotations
 
 import math
+from itertools import islice
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,7 +21,7 @@ from domain.lattice import LatticeGrid, MotionTable
 from domain.lattice_states import LatticeState, StatePool
 from sim.robot import Array
 
-MOVES_LIMIT = 40_000  # states whose successors are kept (~4 KB each) before starting afresh
+MOVES_LIMIT = 10_000  # states whose successors are kept (~5-10 KB each); then the older half goes
 Moves = tuple[list[tuple[Operator, LatticeState]], list[tuple[int, str]]]  # successors, edges
 
 
@@ -104,6 +105,7 @@ class MotionCache:
 
     def keep_moves(self, number: int, moves: Moves) -> None:
         """Keep the successors built for a state whose free motions this cache holds."""
-        if len(self.moves) >= self.moves_limit:
-            self.moves.clear()  # built again when needed: only speed is lost
+        if len(self.moves) >= self.moves_limit:  # the older half goes (built again if needed)
+            for old in list(islice(self.moves, max(1, len(self.moves) // 2))):
+                del self.moves[old]
         self.moves[number] = moves

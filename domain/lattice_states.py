@@ -14,10 +14,11 @@ from __future__ import annotations
 import gc
 from collections.abc import Iterator
 from contextlib import contextmanager
+from itertools import islice
 
 from domain.pyperplan_adapter import Fact
 
-POOL_LIMIT = 200_000  # states kept per pool (~0.3 KB each) before it starts afresh
+POOL_LIMIT = 100_000  # states kept per pool (~0.4 KB each); then the older half goes
 
 
 class LatticeState(frozenset[Fact]):
@@ -52,8 +53,9 @@ class StatePool:
         """The state ``{(at s<number>)}``."""
         state = self.states.get(number)
         if state is None:
-            if len(self.states) >= self.limit:
-                self.states.clear()  # equal objects are made again: only speed is lost
+            if len(self.states) >= self.limit:  # the older half goes: equal ones are made again
+                for old in list(islice(self.states, max(1, len(self.states) // 2))):
+                    del self.states[old]
             state = self.states[number] = LatticeState.of((at_fact(number),), number, False)
         return state
 

@@ -129,3 +129,14 @@ def test_a_pool_hands_out_one_state_per_number_equal_to_the_plain_frozenset() ->
     assert pool.state(7) == a and len(pool.states) <= 2
     with pytest.raises(ValueError, match="limit"):
         StatePool(limit=0)
+
+
+def test_the_motion_cache_keeps_the_newest_successors_up_to_its_limit() -> None:
+    assert STRAIGHT is not None
+    grid = LatticePlanner(BOUNDS, SETTINGS).grid
+    cache = MotionCache(grid, STRAIGHT, SETTINGS.margin, moves_limit=4)
+    for number in range(10):
+        cache.keep_moves(number, ([], []))
+    assert len(cache.moves) <= 4 and 9 in cache.moves and 0 not in cache.moves
+    with pytest.raises(ValueError, match="moves_limit"):
+        MotionCache(grid, STRAIGHT, SETTINGS.margin, moves_limit=0)
