@@ -207,6 +207,17 @@ class MotionTable:
         return max(float(np.max(n)) for n in self.needs)
 
     @cached_property
+    def distinct(self) -> list[tuple[Array, NDArray[np.intp]]]:
+        """Per bin: the distinct swept sample points and, for each of ``points[k]``, its row
+        among them (a quarter of the points repeat: every motion starts from the resting
+        body), so a check looks clearance up once per distinct point."""
+        out = []
+        for pts in self.points:
+            unique, inverse = np.unique(pts, axis=0, return_inverse=True)
+            out.append((np.ascontiguousarray(unique), inverse.reshape(-1).astype(np.intp)))
+        return out
+
+    @cached_property
     def largest_turn(self) -> float:
         """The largest change of heading of one motion, radians."""
         return max((abs(float(m.end[2])) for m in self.motions), default=math.pi)
