@@ -87,6 +87,12 @@ class MotionCache:
         cells whose first cell is ``origin``)."""
         if not self.free:
             return
+        # Only the changed cells' bounding box matters (the distances below reach past it).
+        rows, cols = np.flatnonzero(changed.any(axis=1)), np.flatnonzero(changed.any(axis=0))
+        if rows.size == 0:
+            return
+        changed = changed[rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1]
+        origin = (origin[0] + int(rows[0]), origin[1] + int(cols[0]))
         r = self.grid.settings.resolution
         limit = self.reach + 2 * r * math.sqrt(2)
         pad = math.ceil(limit / r)
