@@ -139,6 +139,9 @@ class MotionTable:
     body_points: list[Array] = field(init=False)  # per bin: the resting body's sample points
     body_needs: list[Array] = field(init=False)
     heads: list[tuple[float, float]] = field(init=False)  # per bin: tracked point - centroid
+    _distinct: list[tuple[Array, NDArray[np.intp]] | None] = field(
+        init=False, repr=False, compare=False
+    )
 
     def __post_init__(self) -> None:
         from domain.lattice_task import primitive_name  # names only; no import cycle at load
@@ -149,6 +152,7 @@ class MotionTable:
         K, r = self.settings.orientations, self.settings.resolution
         M = len(self.motions)
         self.deltas = np.zeros((K, M, 3), dtype=np.int64)
+        self._distinct = [None] * K
         # Every orientation at once (one batch per motion): each value is computed by the same
         # elementwise operations as one pose at a time, ~20x faster than a loop over bins.
         psi = np.asarray(np.arange(K) * self.settings.step, dtype=np.float64)
@@ -206,16 +210,18 @@ class MotionTable:
         """The largest clearance any swept sample point needs (before the margin), metres."""
         return max(float(np.max(n)) for n in self.needs)
 
-    @cached_property
-    def distinct(self) -> list[tuple[Array, NDArray[np.intp]]]:
-        """Per bin: the distinct swept sample points and, for each of ``points[k]``, its row
+    def distinct(self, k: int) -> tuple[Array, NDArray[np.intp]]:
+        """Bin ``k``'s distinct swept sample points and, for each of ``points[k]``, its row
         among them (a quarter of the points repeat: every motion starts from the resting
-        body), so a check looks clearance up once per distinct point."""
-        out = []
-        for pts in self.points:
-            unique, inverse = np.unique(pts, axis=0, return_inverse=True)
-            out.append((np.ascontiguousarray(unique), inverse.reshape(-1).astype(np.intp)))
-        return out
+        body), so a check looks clearance up once per distinct point. Made on first use."""
+        got = self._distinct[k]
+        if got is None:
+            # As complex numbers: a 1-D sort in (x, y) order, ~10x np.unique(axis=0)'s speed.
+            flat = np.ascontiguousarray(self.points[k], dtype=np.float64).view(np.complex128)
+            unique, inverse = np.unique(flat.ravel(), return_inverse=True)
+            rows = np.ascontiguousarray(unique).view(np.float64).reshape(-1, 2)
+            got = self._distinct[k] = (rows, inverse.reshape(-1).astype(np.intp))
+        return got
 
     @cached_property
     def largest_turn(self) -> float:

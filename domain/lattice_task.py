@@ -196,7 +196,7 @@ class LatticeTask(Task):  # type: ignore[misc]
             need = t.needs[k] + margin
             if not start:
                 self._needs[k] = need
-        unique, inverse = t.distinct[k]
+        unique, inverse = t.distinct(k)
         ok_points = self.clearance(centre + unique)[inverse] >= need
         out: NDArray[np.bool_] = np.logical_and.reduceat(ok_points, t.segments[k])
         return out

@@ -140,3 +140,11 @@ def test_the_motion_cache_keeps_the_newest_successors_up_to_its_limit() -> None:
     assert len(cache.moves) <= 4 and 9 in cache.moves and 0 not in cache.moves
     with pytest.raises(ValueError, match="moves_limit"):
         MotionCache(grid, STRAIGHT, SETTINGS.margin, moves_limit=0)
+
+
+def test_a_bins_distinct_points_give_back_every_swept_point() -> None:
+    assert STRAIGHT is not None
+    for k in (0, 13, 63):
+        unique, inverse = STRAIGHT.distinct(k)
+        assert np.array_equal(unique[inverse], STRAIGHT.points[k])
+        assert len(np.unique(unique, axis=0)) == len(unique) < len(STRAIGHT.points[k])
