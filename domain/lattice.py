@@ -224,6 +224,11 @@ class MotionTable:
         return got
 
     @cached_property
+    def cell_reach(self) -> list[int]:
+        """Per bin: the most cells any motion moves the centroid along either axis."""
+        return [int(np.max(np.abs(d[:, :2]), initial=0)) for d in self.deltas]
+
+    @cached_property
     def largest_turn(self) -> float:
         """The largest change of heading of one motion, radians."""
         return max((abs(float(m.end[2])) for m in self.motions), default=math.pi)

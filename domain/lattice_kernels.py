@@ -1,4 +1,5 @@
-"""Compiled (numba) kernels of the lattice planner: the 8-connected grid Dijkstra.
+"""Compiled (numba) kernels of the lattice planner: the 8-connected grid Dijkstra, and which
+motions of a state keep their clearance.
 
 scipy's csgraph Dijkstra needs the grid as a sparse matrix whose edge weights are rebuilt for
 every map (infinite into blocked cells), a few passes over eight edges per cell in numpy before
@@ -20,7 +21,21 @@ from numpy.typing import NDArray
 from domain.occupancy_kernel import AVAILABLE, _jit
 from sim.robot import Array
 
-__all__ = ["AVAILABLE", "grid_dijkstra"]
+__all__ = ["AVAILABLE", "grid_dijkstra", "motions_free"]
+
+
+def motions_free(
+    clear: Array, inverse: NDArray[np.intp], need: Array, segments: NDArray[np.int64]
+) -> NDArray[np.bool_]:
+    """Per motion: whether every one of its sample points keeps its need, from the clearance
+    at a bin's distinct points (``clear``), each sample's row among them (``inverse``), its
+    need (``need``) and where each motion's samples start (``segments``)."""
+    if AVAILABLE:
+        out = np.empty(len(segments), dtype=np.bool_)
+        _motions_free(clear, inverse, need, segments, out)
+        return out
+    free: NDArray[np.bool_] = np.logical_and.reduceat(clear[inverse] >= need, segments)
+    return free
 
 
 def grid_dijkstra(ok: NDArray[np.bool_], sources: NDArray[np.int64], r: float) -> Array:
@@ -91,3 +106,23 @@ def _dijkstra(  # pragma: no cover - compiled
                     sizes[t] += 1
                     live += 1
         current += 1
+
+
+@_jit
+def _motions_free(  # pragma: no cover - compiled
+    clear: Array,
+    inverse: NDArray[np.intp],
+    need: Array,
+    segments: NDArray[np.int64],
+    out: NDArray[np.bool_],
+) -> None:
+    """``motions_free`` in one loop, each motion's points until the first that fails."""
+    m_count = segments.shape[0]
+    for m in range(m_count):
+        end = segments[m + 1] if m + 1 < m_count else inverse.shape[0]
+        ok = True
+        for p in range(segments[m], end):
+            if not clear[inverse[p]] >= need[p]:
+                ok = False
+                break
+        out[m] = ok

@@ -25,6 +25,7 @@ from pyperplan.heuristics.heuristic_base import Heuristic
 from pyperplan.search import astar_search, greedy_best_first_search, weighted_astar_search
 from pyperplan.task import Operator, Task
 
+from domain import lattice_kernels
 from domain.lattice import Key, LatticeGrid, MotionTable
 from domain.lattice_cache import MotionCache, Moves
 from domain.lattice_states import LatticeState, StatePool
@@ -171,10 +172,12 @@ class LatticeTask(Task):  # type: ignore[misc]
         number = self.grid.encode(key)
         ok = cache.free.get(number) if cache is not None and cached else None
         if ok is None:
-            d = self.table.deltas[k]
-            ni, nj = i + d[:, 0], j + d[:, 1]
             ok = self._free_motions(key)
-            ok &= (ni >= 0) & (ni < self.grid.nx) & (nj >= 0) & (nj < self.grid.ny)
+            reach = self.table.cell_reach[k]  # no motion of this bin leaves the grid from here?
+            if not (reach <= i < self.grid.nx - reach and reach <= j < self.grid.ny - reach):
+                d = self.table.deltas[k]
+                ni, nj = i + d[:, 0], j + d[:, 1]
+                ok &= (ni >= 0) & (ni < self.grid.nx) & (nj >= 0) & (nj < self.grid.ny)
             if cache is not None and cached:
                 cache.free[number] = ok
         return ok
@@ -197,9 +200,9 @@ class LatticeTask(Task):  # type: ignore[misc]
             if not start:
                 self._needs[k] = need
         unique, inverse = t.distinct(k)
-        ok_points = self.clearance(centre + unique)[inverse] >= need
-        out: NDArray[np.bool_] = np.logical_and.reduceat(ok_points, t.segments[k])
-        return out
+        return lattice_kernels.motions_free(
+            self.clearance(centre + unique), inverse, need, t.segments[k]
+        )
 
     # -- pyperplan's Task interface -----------------------------------------------------------
     def get_successor_states(

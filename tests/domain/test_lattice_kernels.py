@@ -46,3 +46,19 @@ def test_distances_go_round_a_wall() -> None:
     d = lattice_distances.geodesic(ok, [(0, 0)], 1.0)
     assert d[8, 0] > 8 * 1.0  # round the end of the wall, not through it
     assert np.isclose(d[3, 0], 3.0) and np.isclose(d[2, 2], 2 * np.sqrt(2))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_motions_free_equals_the_numpy_check(seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = np.random.default_rng(seed)
+    clear = rng.uniform(0.0, 0.3, 50)
+    inverse = rng.integers(0, 50, 400).astype(np.intp)
+    need = rng.uniform(0.0, 0.12, 400)
+    segments = np.sort(rng.choice(np.arange(1, 400), 21, replace=False)).astype(np.int64)
+    segments = np.concatenate([[0], segments])
+    got = lattice_kernels.motions_free(clear, inverse, need, segments)
+    with monkeypatch.context() as m:
+        m.setattr(lattice_kernels, "AVAILABLE", False)
+        want = lattice_kernels.motions_free(clear, inverse, need, segments)
+    assert got.dtype == bool and np.array_equal(got, want)
+    assert 0 < want.sum() < len(want)  # some motions free, some blocked: both paths tested
