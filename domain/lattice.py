@@ -96,6 +96,18 @@ def capsule_samples(starts: Array, ends: Array, radii: Array) -> tuple[Array, Ar
     return pts.reshape(-1, 2), need.reshape(-1)
 
 
+def _per_bin(starts: Array, ends: Array, radii: Array) -> tuple[list[Array], list[Array]]:
+    """``capsule_samples`` of each orientation bin's capsules (``[K, ..., C, 2]``), as lists
+    over the bins; the points per capsule are counted per bin, as they would be one by one."""
+    length = np.max(np.linalg.norm(ends - starts, axis=-1).reshape(len(starts), -1), axis=-1)
+    counts = np.maximum(2, np.ceil(length / SAMPLE_SPACING).astype(np.int64) + 1)
+    if np.all(counts == counts[0]):  # (a rigid body: always, but for rounding)
+        pts, need = capsule_samples(starts, ends, radii)
+        return list(pts.reshape(len(starts), -1, 2)), list(need.reshape(len(starts), -1))
+    out = [capsule_samples(a, b, radii) for a, b in zip(starts, ends, strict=True)]
+    return [p for p, _ in out], [n for _, n in out]
+
+
 def _thin(poses: Array, reach: float) -> Array:
     """Swept poses thinned so no body point moves more than SAMPLE_SPACING between them."""
     keep = [poses[0]]
@@ -127,6 +139,9 @@ class MotionTable:
     body_points: list[Array] = field(init=False)  # per bin: the resting body's sample points
     body_needs: list[Array] = field(init=False)
     heads: list[tuple[float, float]] = field(init=False)  # per bin: tracked point - centroid
+    _distinct: list[tuple[Array, NDArray[np.intp]] | None] = field(
+        init=False, repr=False, compare=False
+    )
 
     def __post_init__(self) -> None:
         from domain.lattice_task import primitive_name  # names only; no import cycle at load
@@ -135,36 +150,38 @@ class MotionTable:
         self.offset = centroid_offset(self.joints, self.geometry)
         reach = self.geometry.body_length
         K, r = self.settings.orientations, self.settings.resolution
-        self.deltas = np.zeros((K, len(self.motions), 3), dtype=np.int64)
+        M = len(self.motions)
+        self.deltas = np.zeros((K, M, 3), dtype=np.int64)
+        self._distinct = [None] * K
+        # Every orientation at once (one batch per motion): each value is computed by the same
+        # elementwise operations as one pose at a time, ~20x faster than a loop over bins.
+        psi = np.asarray(np.arange(K) * self.settings.step, dtype=np.float64)
+        starts = np.concatenate([np.zeros(2) - rotate(self.offset, psi), psi[:, None]], axis=-1)
+        self.heads = [(float(x), float(y)) for x, y in starts[:, :2]]
+        fp0 = footprint(starts, self.joints, self.geometry)
+        p0, n0 = _per_bin(fp0.starts, fp0.ends, fp0.radii)
+        self.body_points, self.body_needs = p0, n0
+        pts_m: list[list[Array]] = []
+        need_m: list[list[Array]] = []
+        for m, motion in enumerate(self.motions):
+            end = compose(starts, motion.end)
+            c = self.centroid(end)
+            self.deltas[:, m, 0] = np.round(c[:, 0] / r)
+            self.deltas[:, m, 1] = np.round(c[:, 1] / r)
+            self.deltas[:, m, 2] = round(float(motion.end[2]) / self.settings.step)
+            # The start pose too: a state's representative pose is where the previous move
+            # landed, snapped to the lattice, so it was not checked by that move.
+            swept = compose(starts[:, None, :], _thin(motion.swept, reach))  # [K, S, 3]
+            fp = footprint(swept, self.joints, self.geometry)
+            pts, need = _per_bin(fp.starts, fp.ends, fp.radii)
+            pts_m.append(pts)
+            need_m.append(need)
         self.points, self.needs, self.segments = [], [], []
-        self.body_points, self.body_needs = [], []
-        self.heads = []
         for k in range(K):
-            start = self.pose_of_centroid(np.zeros(2), k)
-            self.heads.append((float(start[0]), float(start[1])))
-            fp0 = footprint(start, self.joints, self.geometry)
-            p0, n0 = capsule_samples(fp0.starts, fp0.ends, fp0.radii)
-            self.body_points.append(p0)
-            self.body_needs.append(n0)
-            pts_k: list[Array] = []
-            need_k: list[Array] = []
-            seg: list[int] = []
-            for m, motion in enumerate(self.motions):
-                end = compose(start, motion.end)
-                c = self.centroid(end)
-                dk = round(float(motion.end[2]) / self.settings.step)
-                self.deltas[k, m] = (round(c[0] / r), round(c[1] / r), dk)
-                # The start pose too: a state's representative pose is where the previous move
-                # landed, snapped to the lattice, so it was not checked by that move.
-                swept = compose(start, _thin(motion.swept, reach))
-                fp = footprint(swept, self.joints, self.geometry)
-                pts, need = capsule_samples(fp.starts, fp.ends, fp.radii)
-                seg.append(sum(len(p) for p in pts_k))
-                pts_k.append(pts)
-                need_k.append(need)
-            self.points.append(np.concatenate(pts_k))
-            self.needs.append(np.concatenate(need_k))
-            self.segments.append(np.array(seg, dtype=np.int64))
+            self.points.append(np.concatenate([p[k] for p in pts_m]))
+            self.needs.append(np.concatenate([n[k] for n in need_m]))
+            sizes = [len(p[k]) for p in pts_m]
+            self.segments.append(np.concatenate([[0], np.cumsum(sizes[:-1])]).astype(np.int64))
         # Clearance at the centroid beyond which every motion is free (clearance is
         # 1-Lipschitz: no point lies further than `reach` from the centroid).
         self.open_clearance = max(
@@ -182,6 +199,34 @@ class MotionTable:
             default=0.25,
         )
         return max(step, 1e-3)
+
+    @cached_property
+    def reach(self) -> float:
+        """How far any motion's swept sample points lie from its start centroid, metres."""
+        return max(float(np.max(np.linalg.norm(p, axis=-1))) for p in self.points)
+
+    @cached_property
+    def largest_need(self) -> float:
+        """The largest clearance any swept sample point needs (before the margin), metres."""
+        return max(float(np.max(n)) for n in self.needs)
+
+    def distinct(self, k: int) -> tuple[Array, NDArray[np.intp]]:
+        """Bin ``k``'s distinct swept sample points and, for each of ``points[k]``, its row
+        among them (a quarter of the points repeat: every motion starts from the resting
+        body), so a check looks clearance up once per distinct point. Made on first use."""
+        got = self._distinct[k]
+        if got is None:
+            # As complex numbers: a 1-D sort in (x, y) order, ~10x np.unique(axis=0)'s speed.
+            flat = np.ascontiguousarray(self.points[k], dtype=np.float64).view(np.complex128)
+            unique, inverse = np.unique(flat.ravel(), return_inverse=True)
+            rows = np.ascontiguousarray(unique).view(np.float64).reshape(-1, 2)
+            got = self._distinct[k] = (rows, inverse.reshape(-1).astype(np.intp))
+        return got
+
+    @cached_property
+    def cell_reach(self) -> list[int]:
+        """Per bin: the most cells any motion moves the centroid along either axis."""
+        return [int(np.max(np.abs(d[:, :2]), initial=0)) for d in self.deltas]
 
     @cached_property
     def largest_turn(self) -> float:

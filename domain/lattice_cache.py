@@ -10,25 +10,44 @@ motion's reach of a cell whose capped clearance changed.
 from __future__ import annotations
 
 import math
+from itertools import islice
 
 import numpy as np
 from numpy.typing import NDArray
+from pyperplan.task import Operator
 from scipy import ndimage
 
 from domain.lattice import LatticeGrid, MotionTable
+from domain.lattice_states import LatticeState, StatePool
 from sim.robot import Array
+
+MOVES_LIMIT = 10_000  # states whose successors are kept (~5-10 KB each); then the older half goes
+Moves = tuple[list[tuple[Operator, LatticeState]], list[tuple[int, str]]]  # successors, edges
 
 
 class MotionCache:
     """Free motions per lattice state number for one shape and margin."""
 
-    def __init__(self, grid: LatticeGrid, table: MotionTable, margin: float) -> None:
+    def __init__(
+        self,
+        grid: LatticeGrid,
+        table: MotionTable,
+        margin: float,
+        states: StatePool | None = None,
+        moves_limit: int = MOVES_LIMIT,
+    ) -> None:
+        if moves_limit < 1:
+            raise ValueError("moves_limit: at least 1 state")
         self.grid, self.table, self.margin = grid, table, margin
         self.free: dict[int, NDArray[np.bool_]] = {}
+        # Successors of the states in ``free`` (from the same verdicts), built on demand.
+        self.moves: dict[int, Moves] = {}
+        self.moves_limit = moves_limit
+        self.states = states if states is not None else StatePool()
         # Clearance above this decides nothing: every motion needs less at every point.
-        self.cap = max(float(np.max(n)) for n in table.needs) + margin + grid.settings.resolution
+        self.cap = table.largest_need + margin + grid.settings.resolution
         # A motion's points lie within this of its start centroid (plus bilinear support).
-        self.reach = max(float(np.max(np.linalg.norm(p, axis=-1))) for p in table.points)
+        self.reach = table.reach
         self._capped: Array | None = None
         self.version: object = None
 
@@ -42,6 +61,7 @@ class MotionCache:
         old, self._capped = self._capped, capped
         if old is None or not self.free:
             self.free.clear()
+            self.moves.clear()
             return
         changed = np.abs(capped - old) > 1e-9
         if np.any(changed):
@@ -67,6 +87,12 @@ class MotionCache:
         cells whose first cell is ``origin``)."""
         if not self.free:
             return
+        # Only the changed cells' bounding box matters (the distances below reach past it).
+        rows, cols = np.flatnonzero(changed.any(axis=1)), np.flatnonzero(changed.any(axis=0))
+        if rows.size == 0:
+            return
+        changed = changed[rows[0] : rows[-1] + 1, cols[0] : cols[-1] + 1]
+        origin = (origin[0] + int(rows[0]), origin[1] + int(cols[0]))
         r = self.grid.settings.resolution
         limit = self.reach + 2 * r * math.sqrt(2)
         pad = math.ceil(limit / r)
@@ -78,5 +104,14 @@ class MotionCache:
         inside = (li >= 0) & (li < near.shape[0]) & (lj >= 0) & (lj < near.shape[1])
         hit = np.zeros(numbers.size, dtype=bool)
         hit[inside] = near[li[inside], lj[inside]]
+        moves = self.moves
         for number in numbers[hit].tolist():
             del self.free[number]
+            moves.pop(number, None)
+
+    def keep_moves(self, number: int, moves: Moves) -> None:
+        """Keep the successors built for a state whose free motions this cache holds."""
+        if len(self.moves) >= self.moves_limit:  # the older half goes (built again if needed)
+            for old in list(islice(self.moves, max(1, len(self.moves) // 2))):
+                del self.moves[old]
+        self.moves[number] = moves

@@ -1,7 +1,8 @@
 """Footprint-aware 2-D distances on the lattice's cells: the relaxation that decides most
 unreachable goals before any search, the search heuristic and the goal-to-goal distance table.
 
-Dijkstra (scipy's csgraph) over the cells the body centroid can occupy, 8-connected.
+Dijkstra over the cells the body centroid can occupy, 8-connected: a compiled grid search
+(domain/lattice_kernels.py), or scipy's csgraph without numba.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ from numpy.typing import NDArray
 from scipy.sparse import coo_matrix, csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from domain import lattice_kernels
 from domain.lattice import LatticeGrid, MotionTable
 from sim.robot import DEFAULT_GEOMETRY, Array
 from sim.world import footprint
@@ -104,6 +106,9 @@ def geodesic(ok: NDArray[np.bool_], sources: Sequence[tuple[int, int]], r: float
     """Dijkstra distances (m) from the nearest of the cells ``sources`` over the 8-connected cells where ``ok``
     (``[nx, ny]``; ``inf`` where cut off)."""
     nx, ny = ok.shape
+    index = [i * ny + j for i, j in sources]
+    if lattice_kernels.AVAILABLE:
+        return lattice_kernels.grid_dijkstra(ok, np.array(index, dtype=np.int64), r)
     flat = ok.ravel()
     graph, rows = _topology(nx, ny, r)
     # The 8-connected graph is built once per grid; edges into or out of blocked cells get an
@@ -112,7 +117,6 @@ def geodesic(ok: NDArray[np.bool_], sources: Sequence[tuple[int, int]], r: float
     weighted = csr_matrix(
         (np.where(blocked, np.inf, graph.data), graph.indices, graph.indptr), shape=graph.shape
     )
-    index = [i * ny + j for i, j in sources]
     dist = dijkstra(weighted, directed=True, indices=index, min_only=True)
     return np.asarray(dist, dtype=float).reshape(nx, ny)
 

@@ -89,8 +89,7 @@ class LatticeGraph:
         first = tasks[0]
         graph = cls(first.start_key, first.start_number)
         for task in tasks:
-            for a, out in task.edges.items():
-                graph.edges.update((a, b, p) for b, p in out)
+            graph.edges.update([(a, b, p) for a, out in task.edges.items() for b, p in out])
             graph.near.update((s, task.goal_index) for s in task.near)
             graph.goals.append((task.goal_index, task.goal[0], task.goal[1], task.reach))
             graph.notes.append(
@@ -123,16 +122,14 @@ def lattice_problem(
         else LatticeGraph.of_legs(_tasks(legs))
     )
     edges = graph.edges
-    states: set[int] = {graph.start_number}
-    states.update(a for a, _, _ in edges)
-    states.update(b for _, b, _ in edges)
-    states.update(s for s, _ in graph.near)
+    states = {graph.start_number, *[a for a, _, _ in edges], *[b for _, b, _ in edges]}
+    states.update([s for s, _ in graph.near])
     body = primitive_name(shape)
     before = primitive_name(reshaped_from) if reshaped_from else body
     init = [f"(at {state_name(graph.start_number)})", f"(body {before})"]
     if before != body:
         init.append(f"(reshapes {before} {body})")
-    init += [f"(succ {state_name(a)} {state_name(b)} {p})" for a, b, p in sorted(edges)]
+    init += [f"(succ s{a} s{b} {p})" for a, b, p in sorted(edges)]  # state_name() inlined
     init += [f"(near {state_name(s)} g{g})" for s, g in sorted(graph.near)]
     goals = [f"g{index}" for index, *_ in graph.goals]
     i, j, k = graph.start

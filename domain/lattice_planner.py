@@ -25,6 +25,7 @@ from domain.lattice_distances import centroid_need, distance_map
 from domain.lattice_plan import LatticeAction, LatticePlan
 from domain.lattice_reach import Reachability
 from domain.lattice_repair import PlanRepairer, leg_reach
+from domain.lattice_states import StatePool, no_cycle_collection
 from domain.lattice_task import Clearance, LatticeHeuristic, LatticeTask, primitive_name
 from domain.pyperplan_adapter import (
     HEURISTICS,
@@ -69,6 +70,7 @@ class LatticePlanner:
         self._maps: dict[tuple[Any, ...], Array] = {}
         self._reach: dict[tuple[Any, ...], Reachability] = {}
         self._motions: dict[tuple[Any, ...], MotionCache] = {}
+        self.states = StatePool()  # search states shared by every search on this grid
         self._centres: tuple[Any, Array] | None = None
         self.repairer = PlanRepairer(
             self.grid,
@@ -245,6 +247,7 @@ class LatticePlanner:
             self.settings.margin,
             self.settings.start_margin if first else self.settings.margin,
             goal.index,
+            self.states,
         )
         task.deadline, task.cancel = deadline, cancel
         task.cache = self.motion_cache(table)
@@ -264,7 +267,7 @@ class LatticePlanner:
         if key not in self._motions:
             if len(self._motions) > 4:
                 self._motions.clear()
-            self._motions[key] = MotionCache(self.grid, table, self.settings.margin)
+            self._motions[key] = MotionCache(self.grid, table, self.settings.margin, self.states)
         return self._motions[key]
 
     def _search(self, task: LatticeTask, distances: Array) -> PlanResult:
@@ -279,7 +282,9 @@ class LatticePlanner:
             else:
                 task.ground_all()  # pyperplan's own heuristics need every operator
                 h = HEURISTICS[self.heuristic](task)
-            plan = SEARCHES[self.search](task, h) if self.search != "bfs" else SEARCHES["bfs"](task)
+            search = SEARCHES[self.search]
+            with no_cycle_collection(), task.search_reached(search):
+                plan = search(task, h) if self.search != "bfs" else search(task)
         except SearchStopped as stop:
             ms = (time.monotonic() - t0) * 1e3
             best = lattice_h.best

@@ -25,10 +25,11 @@ from pyperplan.heuristics.heuristic_base import Heuristic
 
 from domain.goal_order import LegGoal
 from domain.lattice import Key, LatticeGrid, MotionTable
-from domain.lattice_cache import MotionCache
+from domain.lattice_cache import MotionCache, Moves
 from domain.lattice_distances import centroid_need, window_distance_map
 from domain.lattice_pddl import LatticeGraph
 from domain.lattice_plan import LatticeAction
+from domain.lattice_states import no_cycle_collection
 from domain.lattice_task import Clearance, LatticeTask, start_allowance
 from domain.pyperplan_adapter import CancelFlag, SearchStopped
 from domain.touching import TouchAllowance
@@ -130,13 +131,18 @@ class RejoinTask(LatticeTask):
     def is_near(self, key: Key) -> bool:
         return self.grid.encode(key) in self.targets
 
-    def valid_motions(self, key: Key) -> list[tuple[Key, int]]:
-        wi, wj = self.window
-        return [
-            (nkey, m)
-            for nkey, m in super().valid_motions(key)
-            if wi.start <= nkey[0] < wi.stop and wj.start <= nkey[1] < wj.stop
-        ]
+    def moves_from(self, number: int) -> Moves:
+        """The lattice's moves out of ``number`` that stay inside the window."""
+        moves, edges = super().moves_from(number)
+        (wi, wj), ny, plane = self.window, self.grid.ny, self.grid.nx * self.grid.ny
+        inside = []
+        for n, (b, _) in enumerate(edges):
+            i, j = divmod(b % plane, ny)
+            if wi.start <= i < wi.stop and wj.start <= j < wj.stop:
+                inside.append(n)
+        if len(inside) == len(edges):
+            return moves, edges
+        return [moves[n] for n in inside], [edges[n] for n in inside]
 
 
 class RejoinHeuristic(Heuristic):  # type: ignore[misc]
@@ -152,7 +158,7 @@ class RejoinHeuristic(Heuristic):  # type: ignore[misc]
 
     def __call__(self, node: Any) -> float:
         task = self.task
-        if task.goal_fact in node.state:
+        if task.goal_reached(node.state):
             return 0.0
         number = task.at(node.state)
         if number is None:
@@ -345,7 +351,8 @@ class PlanRepairer:
             return None
         heuristic = RejoinHeuristic(task, dist, table.longest_step, table.largest_turn)
         try:
-            plan = self.search(task, heuristic)
+            with no_cycle_collection(), task.search_reached(self.search):
+                plan = self.search(task, heuristic)
         except SearchStopped:
             return None
         return None if plan is None else [op.name for op in plan]

@@ -15,21 +15,27 @@ longest translation.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 from pyperplan.heuristics.heuristic_base import Heuristic
+from pyperplan.search import astar_search, greedy_best_first_search, weighted_astar_search
 from pyperplan.task import Operator, Task
 
+from domain import lattice_kernels
 from domain.lattice import Key, LatticeGrid, MotionTable
-from domain.lattice_cache import MotionCache
+from domain.lattice_cache import MotionCache, Moves
+from domain.lattice_states import LatticeState, StatePool
 from domain.pyperplan_adapter import CancelFlag, Fact, stop_if_due
 from domain.touching import TouchAllowance, touch_allowance
 from sim.robot import Array
 
 Clearance = Callable[[Array], Array]  # clearance (m) at world points [N, 2]
+# pyperplan's searches that keep the least g per state and push only improvements
+_A_STAR_FAMILY = (greedy_best_first_search, astar_search, weighted_astar_search)
 
 
 def state_name(number: int) -> str:
@@ -77,6 +83,7 @@ class LatticeTask(Task):  # type: ignore[misc]
         margin: float,
         start_margin: float,
         goal_index: int = 0,
+        states: StatePool | None = None,
     ) -> None:
         self.grid, self.table, self.clearance = grid, table, clearance
         self.goal, self.reach, self.margin = goal, reach, margin
@@ -89,35 +96,56 @@ class LatticeTask(Task):  # type: ignore[misc]
         self.budget = math.inf  # expansions before the search stops (deterministic, unlike time)
         self.cancel: CancelFlag | None = None
         self.expansions = 0
-        self.edges: dict[
-            int, list[tuple[int, str]]
-        ] = {}  # state -> [(next, primitive's PDDL name)]
+        # state -> [(next, primitive's PDDL name)] (lists shared with the motion cache: read only)
+        self.edges: dict[int, list[tuple[int, str]]] = {}
         self.near: set[int] = set()
-        self._facts: dict[int, Fact] = {}
+        self.reached: dict[int, int] | None = None  # least moves to each state, while searching
         self._size = grid.size
-        self.cache: MotionCache | None = None  # free motions kept between replans (not start's)
+        self._cache: MotionCache | None = None  # free motions kept between replans (not start's)
+        self.states = states if states is not None else StatePool()
         self.at_centres: Array | None = None  # clearance at grid.centres, if the planner has it
+        self._needs: dict[int, Array] = {}  # per bin: the clearance each point needs + margin
+        # Per bin and motion: the next state's number less the cell's (i * ny + j), as
+        # ``encode`` numbers them: (k' * nx + i + di) * ny + j + dj.
+        K, d = grid.settings.orientations, table.deltas
+        turned = (np.arange(K)[:, None] + d[..., 2]) % K
+        self._targets = turned * (grid.nx * grid.ny) + d[..., 0] * grid.ny + d[..., 1]
         start_fact = self.fact(self.start_number)
         super().__init__(
             "lattice",
             {start_fact, self.goal_fact},
-            frozenset([start_fact]),
+            frozenset([start_fact]),  # a plain one: pyperplan's Operator.apply asserts the type
             frozenset([self.goal_fact]),
             [],
         )
 
+    @property
+    def cache(self) -> MotionCache | None:
+        """The free motions (and successors) kept between replans, if any."""
+        return self._cache
+
+    @cache.setter
+    def cache(self, cache: MotionCache | None) -> None:
+        self._cache = cache
+        if cache is not None:
+            self.states = cache.states  # its successors' states are the pool's objects
+
     def fact(self, number: int) -> Fact:
-        f = self._facts.get(number)
-        if f is None:
-            f = self._facts[number] = Fact(f"(at {state_name(number)})", number)
-        return f
+        return self.states.fact(number)
 
     def at(self, state: frozenset[Fact]) -> int | None:
+        if type(state) is LatticeState:
+            return state.number
         size = self._size
         for f in state:
             if f.number < size:
-                return f.number
+                return int(f.number)
         return None
+
+    def goal_reached(self, state: frozenset[Fact]) -> bool:
+        if type(state) is LatticeState:
+            return state.visited
+        return bool(self.goals <= state)
 
     # -- geometry ---------------------------------------------------------------------------
     def is_near(self, key: Key) -> bool:
@@ -131,18 +159,30 @@ class LatticeTask(Task):  # type: ignore[misc]
         """The motions (indices) whose swept footprint is clear from ``key``, with where they
         lead."""
         i, j, k = key
-        t = self.table
-        d = t.deltas[k]
+        d = self.table.deltas[k]
         ni, nj = i + d[:, 0], j + d[:, 1]
         nk = (k + d[:, 2]) % self.grid.settings.orientations
-        cached = key != self.start_key and self.cache is not None
-        ok = self.cache.free.get(self.grid.encode(key)) if self.cache is not None else None
-        if ok is None or not cached:
-            ok = self._free_motions(key)
-            ok &= (ni >= 0) & (ni < self.grid.nx) & (nj >= 0) & (nj < self.grid.ny)
-            if cached and self.cache is not None:
-                self.cache.free[self.grid.encode(key)] = ok
+        ok = self.free_mask(key)
         return [((int(ni[m]), int(nj[m]), int(nk[m])), int(m)) for m in np.flatnonzero(ok)]
+
+    def free_mask(self, key: Key) -> NDArray[np.bool_]:
+        """Per motion: whether its swept footprint is clear from ``key`` and it ends on the
+        grid (kept in the motion cache, except the start's)."""
+        i, j, k = key
+        cache = self._cache
+        cached = cache is not None and key != self.start_key
+        number = self.grid.encode(key)
+        ok = cache.free.get(number) if cache is not None and cached else None
+        if ok is None:
+            ok = self._free_motions(key)
+            reach = self.table.cell_reach[k]  # no motion of this bin leaves the grid from here?
+            if not (reach <= i < self.grid.nx - reach and reach <= j < self.grid.ny - reach):
+                d = self.table.deltas[k]
+                ni, nj = i + d[:, 0], j + d[:, 1]
+                ok &= (ni >= 0) & (ni < self.grid.nx) & (nj >= 0) & (nj < self.grid.ny)
+            if cache is not None and cached:
+                cache.free[number] = ok
+        return ok
 
     def _free_motions(self, key: Key) -> NDArray[np.bool_]:
         i, j, k = key
@@ -150,13 +190,22 @@ class LatticeTask(Task):  # type: ignore[misc]
         centre = self.grid.centre(i, j)
         start = key == self.start_key
         margin = self.start_margin.margin if start else self.margin
-        if float(self.clearance(centre[None, :])[0]) >= t.open_clearance + margin:
+        at = self.at_centres  # the same value as clearance(centre), computed once per world
+        here = float(
+            at[i * self.grid.ny + j] if at is not None else self.clearance(centre[None, :])[0]
+        )
+        if here >= t.open_clearance + margin:
             return np.ones(len(t.motions), dtype=bool)  # open space: nothing near enough
-        points = centre + t.points[k]
-        keep = self.start_margin.at(points) if start else margin
-        ok_points = self.clearance(points) >= t.needs[k] + keep
-        out: NDArray[np.bool_] = np.logical_and.reduceat(ok_points, t.segments[k])
-        return out
+        if start:  # near where the robot touches something, its own allowance
+            need: Array = t.needs[k] + self.start_margin.at(centre + t.points[k])
+        elif k in self._needs:
+            need = self._needs[k]
+        else:
+            need = self._needs[k] = t.needs[k] + margin
+        unique, inverse = t.distinct(k)
+        return lattice_kernels.motions_free(
+            self.clearance(centre + unique), inverse, need, t.segments[k]
+        )
 
     # -- pyperplan's Task interface -----------------------------------------------------------
     def get_successor_states(
@@ -165,31 +214,84 @@ class LatticeTask(Task):  # type: ignore[misc]
         self.expansions += 1
         stop_if_due(self.cancel, self.deadline, self.expansions > self.budget)
         number = self.at(state)
-        if number is None or self.goal_fact in state:
+        if number is None or self.goal_reached(state):
             return []
-        key = self.grid.decode(number)
+        moves, edges = self.moves_from(number)
+        if number not in self.edges:
+            self.edges[number] = edges
+        reached = self.reached
+        if reached is not None:  # drop what the search would drop (see ``search_reached``)
+            g = reached[number] + 1
+            kept = []
+            for move in moves:
+                b = move[1].number
+                if reached.get(b, g + 1) > g:
+                    reached[b] = g
+                    kept.append(move)
+            moves = kept
+        if not self.is_near(self.grid.decode(number)):
+            return moves  # type: ignore[return-value]  # (read only: shared with the cache)
+        self.near.add(number)
         here = self.fact(number)
-        succ = []
-        if self.is_near(key):
-            self.near.add(number)
-            op = Operator(
-                f"(visit {state_name(number)} g{self.goal_index})", [here], [self.goal_fact], []
-            )
-            succ.append((op, state | {self.goal_fact}))
-        fresh = number not in self.edges
-        edges = self.edges.setdefault(number, [])
-        names = self.table.names
+        op = Operator(
+            f"(visit {state_name(number)} g{self.goal_index})", [here], [self.goal_fact], []
+        )
+        done = LatticeState.of((here, self.goal_fact), number, True)
+        return [(op, done), *moves]
+
+    @contextmanager
+    def search_reached(self, search: Callable[..., Any]) -> Iterator[None]:
+        """For the duration of a pyperplan A*-family search (``gbf``, ``astar``, ``wastar``):
+        successors the search would drop are not handed out. Those searches keep the least
+        number of moves ``g`` known for every state they met and push a successor only when it
+        is reached in fewer moves; this task keeps the same numbers (the start at 0, every
+        successor handed out at its parent's + 1) and leaves out a successor already reached
+        in as few moves. The search sees the same open list, in the same order, and finds the
+        same plan, without a node and a heuristic evaluation per duplicate (most successors on
+        a lattice). The PDDL export still lists every successor. Other searches get all."""
+        if search not in _A_STAR_FAMILY:
+            yield
+            return
+        self.reached = {self.start_number: 0}
+        try:
+            yield
+        finally:
+            self.reached = None
+
+    def moves_from(self, number: int) -> Moves:
+        """The moves out of a state: (operator, next state) for every free motion that leaves
+        the cell or turns, and the same as (next state number, primitive's PDDL name). Kept in
+        the motion cache (except the start's, which keep the start's own margin)."""
+        cache = self._cache
+        cached = cache is not None and number != self.start_number
+        if cached:
+            assert cache is not None
+            entry = cache.moves.get(number)
+            if entry is not None:
+                return entry
+        grid = self.grid
+        ny = grid.ny
+        k, cell = divmod(number, ny * grid.nx)
+        i, j = divmod(cell, ny)
+        ok = self.free_mask((i, j, k))
+        targets = self._targets[k][ok] + cell  # next state numbers (see ``__init__``)
+        pool, names = self.states, self.table.names
+        states, make = pool.states, _operator
+        here = pool.fact(number)
         pre = frozenset([here])  # shared by every move out of here (precondition and delete)
-        for nkey, m in self.valid_motions(key):
-            b = self.grid.encode(nkey)
+        moves: list[tuple[Operator, LatticeState]] = []
+        edges: list[tuple[int, str]] = []
+        for b, m in zip(targets.tolist(), np.flatnonzero(ok).tolist(), strict=True):
             if b == number:
                 continue
-            if fresh:
-                edges.append((b, names[m]))
-            after = frozenset([self.fact(b)])
-            name = f"(move s{number} s{b} {names[m]})"  # state_name() inlined: a hot loop
-            succ.append((_operator(name, pre, after, pre), after))
-        return succ
+            after = states.get(b) or pool.state(b)
+            name = names[m]
+            moves.append((make(f"(move s{number} s{b} {name})", pre, after, pre), after))
+            edges.append((b, name))
+        if cached:
+            assert cache is not None
+            cache.keep_moves(number, (moves, edges))
+        return moves, edges
 
     def ground_all(self) -> None:
         """Enumerate the whole reachable lattice into ``operators`` (for pyperplan's own
@@ -249,27 +351,37 @@ class LatticeHeuristic(Heuristic):  # type: ignore[misc]
         narrow = at_centres < self.NARROW
         self.turn_step = grid.settings.step
         base = np.maximum(0.0, distances - self.reach) / step + 1.0
-        self.base = np.where(finite, base, math.inf).ravel().tolist()
-        self.narrow = narrow.tolist()
-        self.way = way.ravel().tolist()
+        # Read per cell the first time a search meets it (a search meets few of the cells:
+        # whole-grid lists cost more than the search on a large arena).
+        self.base = np.where(finite, base, math.inf).ravel()
+        self.narrow = narrow.ravel()
+        self.way = way.ravel()
+        self.cells: dict[int, tuple[float, float, bool]] = {}
         self.plane = grid.nx * grid.ny
         self.best: tuple[float, Any] | None = None
 
     def __call__(self, node: Any) -> float:
         state = node.state
-        task = self.task
-        if task.goal_fact in state:
-            return 0.0
-        number = task.at(state)
-        if number is None:
-            return math.inf
-        k, cell = divmod(number, self.plane)  # encode(): (k * nx + i) * ny + j
-        h: float = self.base[cell]
+        if type(state) is LatticeState:  # the search's own states: no scan for the facts
+            if state.visited:
+                return 0.0
+            number: int | None = state.number
+        else:
+            if self.task.goal_fact in state:
+                return 0.0
+            number = self.task.at(state)
+            if number is None:
+                return math.inf
+        k, cell = divmod(number, self.plane)  # type: ignore[operator]  # encode(): (k * nx + i) * ny + j
+        at = self.cells.get(cell)
+        if at is None:
+            at = (float(self.base[cell]), float(self.way[cell]), bool(self.narrow[cell]))
+            self.cells[cell] = at
+        h, way, narrow = at
         psi = k * self.turn_step
-        way = self.way[cell]
         # e(ψ) points to the tail: the head leads along ψ + π.
         h += self.HEAD_WEIGHT * abs(math.remainder(psi + math.pi - way, 2 * math.pi)) / math.pi
-        if self.narrow[cell]:
+        if narrow:
             h += self.ALIGN_WEIGHT * abs(math.remainder(psi - way, math.pi)) / (math.pi / 2)
         if self.best is None or h < self.best[0]:
             self.best = (h, node)

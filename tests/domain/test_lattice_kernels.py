@@ -1,0 +1,64 @@
+"""The compiled grid Dijkstra gives scipy's distance maps, value for value."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from domain import lattice_distances, lattice_kernels
+
+pytestmark = pytest.mark.skipif(not lattice_kernels.AVAILABLE, reason="numba kernels are off")
+
+
+def scipy_geodesic(
+    ok: np.ndarray, sources: list[tuple[int, int]], r: float, monkeypatch: pytest.MonkeyPatch
+) -> np.ndarray:
+    with monkeypatch.context() as m:
+        m.setattr(lattice_kernels, "AVAILABLE", False)
+        return lattice_distances.geodesic(ok, sources, r)
+
+
+@pytest.mark.parametrize("shape", [(1, 9), (7, 1), (40, 33), (120, 90)])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_grid_dijkstra_equals_scipy(
+    shape: tuple[int, int], seed: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    rng = np.random.default_rng(seed)
+    ok = rng.random(shape) > 0.25
+    sources = [(int(rng.integers(shape[0])), int(rng.integers(shape[1]))) for _ in range(1 + seed)]
+    got = lattice_distances.geodesic(ok, sources, 0.05)
+    want = scipy_geodesic(ok, sources, 0.05, monkeypatch)
+    assert np.isfinite(want).sum() >= len(set(sources))
+    assert np.array_equal(got, want)  # inf where cut off, and the same floats elsewhere
+
+
+def test_a_blocked_source_reaches_nothing_but_itself(monkeypatch: pytest.MonkeyPatch) -> None:
+    ok = np.ones((5, 6), dtype=bool)
+    ok[2, 3] = False
+    got = lattice_distances.geodesic(ok, [(2, 3), (2, 3)], 0.1)
+    assert got[2, 3] == 0.0 and np.isinf(np.delete(got.ravel(), 2 * 6 + 3)).all()
+    assert np.array_equal(got, scipy_geodesic(ok, [(2, 3)], 0.1, monkeypatch))
+
+
+def test_distances_go_round_a_wall() -> None:
+    ok = np.ones((9, 9), dtype=bool)
+    ok[4, :8] = False  # a wall with a gap at j = 8
+    d = lattice_distances.geodesic(ok, [(0, 0)], 1.0)
+    assert d[8, 0] > 8 * 1.0  # round the end of the wall, not through it
+    assert np.isclose(d[3, 0], 3.0) and np.isclose(d[2, 2], 2 * np.sqrt(2))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2, 3])
+def test_motions_free_equals_the_numpy_check(seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = np.random.default_rng(seed)
+    clear = rng.uniform(0.0, 0.3, 50)
+    inverse = rng.integers(0, 50, 400).astype(np.intp)
+    need = rng.uniform(0.0, 0.12, 400)
+    segments = np.sort(rng.choice(np.arange(1, 400), 21, replace=False)).astype(np.int64)
+    segments = np.concatenate([[0], segments])
+    got = lattice_kernels.motions_free(clear, inverse, need, segments)
+    with monkeypatch.context() as m:
+        m.setattr(lattice_kernels, "AVAILABLE", False)
+        want = lattice_kernels.motions_free(clear, inverse, need, segments)
+    assert got.dtype == bool and np.array_equal(got, want)
+    assert 0 < want.sum() < len(want)  # some motions free, some blocked: both paths tested
