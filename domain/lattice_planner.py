@@ -40,6 +40,8 @@ from sim.world import Bounds
 
 PARTIAL_AFTER = 3000  # expansions after which a partial plan is taken, if it gets closer
 # (an expansion budget, not seconds: the same mission and seed plan the same on any machine)
+SEARCH_AGAIN = 40_000  # expansions of the search that follows when nothing got closer (the
+# time limit stays a safety net; a budget, so a faster machine does not plan differently)
 
 
 @dataclass(frozen=True)
@@ -206,8 +208,9 @@ class LatticePlanner:
                 )
                 break
             if result.status == "timeout" and time.monotonic() < deadline:
-                # Nothing closer to go to yet: search again with all the time left.
+                # Nothing closer to go to yet: search again, longer.
                 task = self._leg(table, clearance, here, goal, leg == 0, deadline, cancel)
+                task.budget = SEARCH_AGAIN
                 if leg == 0:
                     plan.task = task
                 result = self._search(task, maps[goal.index])
@@ -347,5 +350,8 @@ class LatticePlanner:
                 f"the body to goal {goal.index} at ({goal.x:g}, {goal.y:g})"
             )
         if result.status == "timeout":
-            return f"planning timeout: no plan to goal {goal.index} within {self.time_limit:g} s"
+            return (
+                f"planning timeout: no plan to goal {goal.index} within "
+                f"{PARTIAL_AFTER + SEARCH_AGAIN:,} expansions or {self.time_limit:g} s"
+            )
         return f"planning {result.status}"
