@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from typing import cast
 
 import numpy as np
+from numpy.typing import NDArray
 
 from sim import collision_kernel
 from sim.obstacles import Obstacle, ray_segment_hits
@@ -15,6 +16,8 @@ from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry, head_tip, joint_po
 from sim.scene import Scene
 
 WALL = -1  # obstacle index reported for the arena bounds
+CANDIDATE_SLACK = 0.25  # m a ray origin may move before its candidate obstacles are found anew
+_NO_CIRCLES = np.zeros((0, 0))
 
 
 @dataclass(frozen=True)
@@ -113,6 +116,9 @@ class World:
         init=False, repr=False, compare=False, default_factory=dict
     )
     _walls: tuple[Array, Array] = field(init=False, repr=False, compare=False)
+    _near_cache: dict[float, tuple[tuple[float, float], NDArray[np.int64], Scene]] = field(
+        init=False, repr=False, compare=False, default_factory=dict
+    )
 
     def __post_init__(self) -> None:
         corners = self.bounds.corners()
@@ -236,6 +242,67 @@ class World:
             what,
         )
         return dist, cast(Array, what)  # integer indices, typed as ray_cast declares them
+
+    def sensor_cast(
+        self,
+        origin: tuple[float, float],
+        cos: Array,
+        sin: Array,
+        max_range: float,
+        starts: NDArray[np.int64],
+        caps: Array,
+    ) -> tuple[Array, NDArray[np.int64]]:
+        """Several sensors' readings at once, compiled (``collision_kernel.AVAILABLE``): rays
+        of unit directions (``cos``, ``sin``) ``[R]`` from ``origin`` as ``ray_cast`` casts
+        them, then per sensor ``k`` (rays ``starts[k]:starts[k + 1]``, range ``caps[k]``) the
+        first of its rays with the smallest distance capped at its range, and what that ray
+        hit (-2 beyond the range). Returns (distances ``[S]``, what ``[S]``)."""
+        ids, scene = self._candidates(origin, max_range)
+        if scene.circle_index.size:
+            dirs = np.stack([cos, sin], axis=-1)  # as ray_cast's callers build them
+            circle_t = scene.circle_ray_cast(np.array(origin), dirs)
+        else:
+            circle_t = _NO_CIRCLES
+        corners, following = self._walls
+        value = np.empty(caps.size)
+        what = np.empty(caps.size, dtype=np.int64)
+        collision_kernel.sensor_cast(
+            origin[0],
+            origin[1],
+            cos,
+            sin,
+            float(max_range),
+            corners,
+            following,
+            ids,
+            scene.kind,
+            circle_t,
+            scene.edge_a,
+            scene.edge_b,
+            starts,
+            caps,
+            value,
+            what,
+        )
+        return value, what
+
+    def _candidates(
+        self, origin: tuple[float, float], reach: float
+    ) -> tuple[NDArray[np.int64], Scene]:
+        """The obstacles whose boxes come within ``reach`` + ``CANDIDATE_SLACK`` of a point
+        at most ``CANDIDATE_SLACK`` (each axis) from ``origin``: a superset of those within
+        ``reach`` of it, kept while the origin stays that close. Rays cast against a superset
+        give the same capped answer (what lies beyond ``reach`` reads as nothing within it),
+        so the set is recomputed only every few steps, not for every reading."""
+        cached = self._near_cache.get(reach)
+        if cached is not None:
+            (ax, ay), ids, scene = cached
+            if abs(origin[0] - ax) <= CANDIDATE_SLACK and abs(origin[1] - ay) <= CANDIDATE_SLACK:
+                return ids, scene
+        near = self._near_point(np.array(origin), reach + CANDIDATE_SLACK)
+        ids, scene = np.array(near, dtype=np.int64), self._scene(near)
+        self._near_cache[reach] = (origin, ids, scene)
+        return ids, scene
 
     def gap(self, fp: Footprint) -> float:
         """Smallest gap between a footprint and any obstacle or wall (0 if touching)."""
