@@ -264,7 +264,7 @@ def sensor_cast(  # pragma: no cover - compiled
     wall_b: Array,
     ids: NDArray[np.int64],
     kind: NDArray[np.int64],
-    circle_t: Array,
+    circle_t: Array,  # [R, circles]: distances, see circle_distances
     edge_a: Array,
     edge_b: Array,
     starts: NDArray[np.int64],  # [S + 1]: sensor k's rays are starts[k]:starts[k + 1]
@@ -273,7 +273,9 @@ def sensor_cast(  # pragma: no cover - compiled
     what: NDArray[np.int64],  # out [S]: what that ray hit, -2 when nothing within the range
 ) -> None:
     """``ray_cast`` for the rays of several sensors, then per sensor the first of its rays
-    with the smallest capped distance (as ``min`` over them with that key)."""
+    with the smallest capped distance (as ``min`` over them with that key). ``circle_t``
+    holds the circles' ray products from numpy (``circle_distances`` turns them into
+    distances first)."""
     inside = _origin_inside(ox, oy, kind, edge_a, edge_b)
     dist = np.empty(cos.size)
     hits = np.empty(cos.size, dtype=np.int64)
@@ -292,3 +294,22 @@ def sensor_cast(  # pragma: no cover - compiled
                 i, v = m, min(dist[m], cap)
         value[k] = v
         what[k] = hits[i] if dist[i] <= cap else -2
+
+
+@_jit
+def circle_distances(bq: Array, rr: Array, radii: Array) -> Array:  # pragma: no cover - compiled
+    """``Scene.circle_ray_cast`` from its products (numpy's, BLAS may fuse them): per circle
+    ``c`` and ray ``r``, ``bq[c, r]`` = dirs[r] · rel[c] and ``rr[c]`` = rel[c] · rel[c]
+    (rel = origin - centre); the rest element by element as numpy computes it. ``[R, C]``."""
+    n_c, n_r = bq.shape[0], bq.shape[1]
+    out = np.empty((n_r, n_c))
+    for c in range(n_c):
+        cq = rr[c] - radii[c] * radii[c]
+        for r in range(n_r):
+            b = bq[c, r]
+            disc = b * b - cq
+            root = math.sqrt(max(disc, 0.0))
+            near, far = -b - root, -b + root
+            t = near if near >= 0 else (0.0 if far >= 0 else np.inf)
+            out[r, c] = t if disc >= 0 else np.inf
+    return out

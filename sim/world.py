@@ -259,8 +259,10 @@ class World:
         hit (-2 beyond the range). Returns (distances ``[S]``, what ``[S]``)."""
         ids, scene = self._candidates(origin, max_range)
         if scene.circle_index.size:
-            dirs = np.stack([cos, sin], axis=-1)  # as ray_cast's callers build them
-            circle_t = scene.circle_ray_cast(np.array(origin), dirs)
+            dirs = np.empty((cos.size, 2))  # as ray_cast's callers stack them
+            dirs[:, 0], dirs[:, 1] = cos, sin
+            bq, rr = scene.circle_products(np.array(origin), dirs)
+            circle_t = collision_kernel.circle_distances(bq, rr, scene.radii)
         else:
             circle_t = _NO_CIRCLES
         corners, following = self._walls

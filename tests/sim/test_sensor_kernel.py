@@ -49,3 +49,20 @@ def test_compiled_read_equals_numpy(seed: int, monkeypatch: pytest.MonkeyPatch) 
             assert got.ranges[name] == value or (math.isnan(value) and math.isnan(got.ranges[name]))
         np.testing.assert_array_equal(got.joints, want.joints)
         np.testing.assert_array_equal(got.pose, want.pose)
+
+
+@pytest.mark.parametrize("seed", range(60))
+def test_circle_distances_equal_numpy(seed: int) -> None:
+    """The compiled rest of ``circle_ray_cast`` after numpy's products, inside circles too."""
+    world, rng = random_case(seed)
+    scene = world._scene(tuple(range(len(world.obstacles))))
+    if not scene.circle_index.size:
+        pytest.skip("no circles in this case")
+    origin = rng.uniform(-4.2, 4.2, 2)
+    if seed % 3 == 0:  # from a circle's centre
+        origin = scene.centres[0].copy()
+    angles = rng.uniform(-math.pi, math.pi, int(rng.integers(1, 14)))
+    dirs = np.stack([np.cos(angles), np.sin(angles)], axis=-1)
+    bq, rr = scene.circle_products(origin, dirs)
+    got = collision_kernel.circle_distances(bq, rr, scene.radii)
+    np.testing.assert_array_equal(got, scene.circle_ray_cast(origin, dirs))
