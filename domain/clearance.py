@@ -2,12 +2,16 @@
 
 The clearance of a cell to a layer is the distance between its centre and the nearest occupied
 cell's, minus half a cell, clipped to ``[0, cap]`` (a Euclidean distance transform, scipy's
-``ndimage``). A tick of sensing adds a few occupied cells; their effect reaches no further than
-``cap`` plus half a cell, so ``DistanceMap.add`` transforms only a window around them and takes
-the minimum with what it had. That equals a full transform value for value: the transform's
-distances are exact, the clipped map is a non-decreasing function of them, and the distance to a
-union of cells is the minimum of the distances to each part. Cells that stop being occupied need
-the full transform again (``DistanceMap.reset``); they are rare (noise decaying).
+``ndimage``). A tick of sensing adds or removes a few occupied cells; their effect reaches no
+further than ``cap`` plus half a cell, so ``DistanceMap`` updates only a window around them:
+
+- **added** cells: the transform of the added cells alone over the window, and the minimum with
+  what the map had. That equals a full transform value for value: the transform's distances are
+  exact, the clipped map is a non-decreasing function of them, and the distance to a union of
+  cells is the minimum of the distances to each part.
+- **removed** cells: the cells within reach of them get the transform of the layer over that
+  window grown by the reach once more (every occupied cell that can be nearest to one of them
+  lies inside it; one further away is beyond ``cap`` either way, where the map saturates).
 """
 
 from __future__ import annotations
@@ -21,6 +25,8 @@ from scipy import ndimage
 from domain.grid import Flat, Grid
 from sim.robot import Array
 
+Window = tuple[int, int, int, int]  # cells i0:i1, j0:j1
+
 
 def clearance_map(occupied: NDArray[np.bool_], resolution: float, cap: float) -> Array:
     """Clearance ``[nx, ny]`` of every cell centre to the occupied cells (``cap`` if none)."""
@@ -32,7 +38,11 @@ def clearance_map(occupied: NDArray[np.bool_], resolution: float, cap: float) ->
 
 
 class DistanceMap:
-    """The clearance map of one occupancy layer, updated as cells are added or removed."""
+    """The clearance map of one occupancy layer, updated as cells are added or removed.
+
+    The map is this object's own and is updated in place: ``get`` hands it out to be read
+    there and then (the world model derives its own arrays from it), not kept.
+    """
 
     def __init__(self, grid: Grid, cap: float) -> None:
         self.grid = grid
@@ -41,27 +51,58 @@ class DistanceMap:
         # cells within this many of an added cell may get closer to something
         self._reach = math.ceil((cap + 0.5 * grid.resolution) / grid.resolution) + 1
 
+    @property
+    def ready(self) -> bool:
+        """Whether the map is there (``get`` will not transform the whole layer)."""
+        return self._map is not None
+
     def reset(self) -> None:
-        """Forget the map: the layer changed in a way a window cannot follow (cells removed)."""
+        """Forget the map: the next ``get`` transforms the whole layer."""
         self._map = None
 
-    def add(self, occupied: NDArray[np.bool_], cells: Flat) -> None:
-        """Cells ``cells`` (flat indices) became occupied in ``occupied`` (the layer, after)."""
-        if self._map is None or cells.size == 0:
-            return
+    def window(self, cells: Flat, grow: int | None = None) -> Window:
+        """The cells within ``grow`` (default: the reach) of flat ``cells``' bounding box."""
+        r = self._reach if grow is None else grow
         i, j = np.divmod(cells, self.grid.ny)
-        r = self._reach
         i0, i1 = max(int(i.min()) - r, 0), min(int(i.max()) + r + 1, self.grid.nx)
         j0, j1 = max(int(j.min()) - r, 0), min(int(j.max()) + r + 1, self.grid.ny)
-        added = np.zeros((i1 - i0, j1 - j0), dtype=bool)
-        added[i - i0, j - j0] = True
-        near = clearance_map(added, self.grid.resolution, self.cap)
-        updated = self._map.copy()  # the old map may be shared with callers: never edit it
-        np.minimum(updated[i0:i1, j0:j1], near, out=updated[i0:i1, j0:j1])
-        self._map = updated
+        return i0, i1, j0, j1
 
-    def get(self, occupied: NDArray[np.bool_]) -> Array:
-        """The clearance map of ``occupied`` (the layer as it is now)."""
+    def add(self, occupied: NDArray[np.bool_], cells: Flat) -> Window | None:
+        """Cells ``cells`` (flat indices) became occupied in ``occupied`` (the layer, after).
+        Returns the window of the map that may have changed (``None``: none)."""
+        if cells.size == 0:
+            return None
+        i0, i1, j0, j1 = self.window(cells)
+        if self._map is not None:
+            i, j = np.divmod(cells, self.grid.ny)
+            added = np.zeros((i1 - i0, j1 - j0), dtype=bool)
+            added[i - i0, j - j0] = True
+            near = clearance_map(added, self.grid.resolution, self.cap)
+            view = self._map[i0:i1, j0:j1]
+            np.minimum(view, near, out=view)
+        return i0, i1, j0, j1
+
+    def remove(self, layers: tuple[NDArray[np.bool_], ...], cells: Flat) -> Window | None:
+        """Cells ``cells`` stopped being occupied; the layer (after) is the union of ``layers``.
+        Returns the window of the map that may have changed (``None``: none)."""
+        if cells.size == 0:
+            return None
+        i0, i1, j0, j1 = self.window(cells)
+        if self._map is not None:
+            o0, o1, p0, p1 = self.window(cells, 2 * self._reach)
+            occupied = layers[0][o0:o1, p0:p1].copy()
+            for layer in layers[1:]:
+                occupied |= layer[o0:o1, p0:p1]
+            near = clearance_map(occupied, self.grid.resolution, self.cap)
+            self._map[i0:i1, j0:j1] = near[i0 - o0 : i1 - o0, j0 - p0 : j1 - p0]
+        return i0, i1, j0, j1
+
+    def get(self, *layers: NDArray[np.bool_]) -> Array:
+        """The clearance map of the union of ``layers`` (the layer as it is now)."""
         if self._map is None:
+            occupied = layers[0]
+            for layer in layers[1:]:
+                occupied = occupied | layer
             self._map = clearance_map(occupied, self.grid.resolution, self.cap)
         return self._map

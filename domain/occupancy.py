@@ -113,6 +113,8 @@ class SensedLayer:
         self.log_odds = np.zeros(grid.shape)
         self.occupied = np.zeros(grid.shape, dtype=bool)
         self.compiled = kernel.AVAILABLE if compiled is None else compiled and kernel.AVAILABLE
+        # the cells the last update lowered (cleared), flat: the only ones whose log-odds fell
+        self.lowered: Flat = np.zeros(0, dtype=np.intp)
         self._scratch: tuple[Array, ...] | None = None
         # the grid as the kernels take it: (origin x, origin y, resolution), (nx, ny)
         self._geometry = np.array([grid.origin[0], grid.origin[1], grid.resolution])
@@ -147,6 +149,7 @@ class SensedLayer:
         step = s.sample_step * res
         if not rows:
             empty = np.zeros(0, dtype=np.intp)
+            self.lowered = empty
             return empty, empty
         if self._scratch is None:
             n = self.grid.nx * self.grid.ny
@@ -191,6 +194,7 @@ class SensedLayer:
             mark,
             acc,
         )
+        self.lowered = cleared
         # The occupancy odds of each arc cell after clearing (numpy's exp, as the numpy path
         # computes it); cells within the noise of known geometry are explained by it.
         became, ceased = kernel.explain_share_and_mark(
@@ -241,6 +245,7 @@ class SensedLayer:
         updates = _Updates([cell], [], [], [], [])
         flat = self.log_odds.reshape(-1)
         touched = [self._apply_free(flat, updates.free)]
+        self.lowered = touched[0]
         # Hit shares use the cleared state: evidence goes to arc cells the beams left standing.
         for obs, cells, likelihood in hits:
             self._share_hit(obs, cells, likelihood, known_clearance.reshape(-1), updates)

@@ -34,7 +34,8 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from domain.clearance import DistanceMap, clearance_map
+from domain.clearance import DistanceMap, Window
+from domain.grid import Flat
 from domain.interpolate import bilinear
 from domain.known import axis_samples, distance_block, known_capsules_clear
 from domain.occupancy import (
@@ -49,6 +50,8 @@ from sim.robot import Array
 from sim.world import Bounds
 
 __all__ = ["RangeObservation", "WorldModel", "WorldModelSettings", "range_observations"]
+
+MAX_STALE_WINDOWS = 64  # windows an inflated grid is brought up to date by, before a rebuild
 
 
 class WorldModel:
@@ -71,33 +74,57 @@ class WorldModel:
         # Where a touched surface probably goes on (a bumper feels a short piece of a wall);
         # avoided while a way round exists, cleared by beams that see the cells free.
         self._suspected = np.zeros(self.grid.shape, dtype=bool)
-        self._suspected_any = False  # whether any cell is suspected (skips a scan per reading)
-        # Clearance to each dynamic layer, kept current as cells come (``domain.clearance``).
-        self._sensed_map = DistanceMap(self.grid, settings.max_clearance)
-        self._contact_map = DistanceMap(self.grid, settings.max_clearance)
+        self._suspected_count = 0  # suspected cells (none: no scan, no suspect tier)
+        # cells suspected since the last reading: they may have been seen free before
+        self._newly_suspected: list[Flat] = []
+        # Clearance to each dynamic layer (and to contacts with suspected cells), kept current
+        # as cells come and go (``domain.clearance``).
+        cap = settings.max_clearance
+        self._sensed_map = DistanceMap(self.grid, cap)
+        self._contact_map = DistanceMap(self.grid, cap)
+        self._touched_map = DistanceMap(self.grid, cap)
         self._cache: dict[Any, Any] = {}
         self._cache_version = -1
+        # The inflated clearance grids (private: never handed out), kept current window by
+        # window: each with the windows changed since it was last brought up to date.
+        self._inflated: dict[tuple[float, float, bool], Array] = {}
+        self._stale: dict[tuple[float, float, bool], list[Window]] = {}
         for obstacle in known:
             self.add_known(obstacle)
         self.version = 0  # counts changes after construction
 
     # --- layers -------------------------------------------------------------------------------
 
+    @property
+    def _suspected_any(self) -> bool:
+        return self._suspected_count > 0
+
     def integrate(self, observations: Iterable[RangeObservation]) -> list[tuple[float, float]]:
         """Update the sensed layer with range readings; return the world centres of the cells
         that became occupied (NaN readings are dropouts and change nothing)."""
-        became, ceased = self._sensed.integrate(observations, self._static)
-        if ceased.size:
-            self._sensed_map.reset()
-        else:
-            self._sensed_map.add(self._sensed.occupied, became)
+        sensed = self._sensed
+        became, ceased = sensed.integrate(observations, self._static)
+        # cells that ceased first (their window transformed afresh, the new cells included),
+        # then the new cells' own window
+        self._changed(self._sensed_map.remove((sensed.occupied,), ceased))
+        self._changed(self._sensed_map.add(sensed.occupied, became))
         changed = bool(became.size or ceased.size)
-        if self._suspected_any and np.any(self._suspected):
-            seen_free = self._suspected & (self._sensed.log_odds <= self.settings.suspect_cleared)
-            if np.any(seen_free):
-                self._suspected &= ~seen_free
-                self._suspected_any = bool(np.any(self._suspected))
+        if self._suspected_count:
+            # A suspected cell is seen free once its log-odds fall to the threshold: only
+            # cells this reading lowered, or suspected since the last one, can have got there.
+            cells = np.concatenate([sensed.lowered, *self._newly_suspected])
+            flat = self._suspected.reshape(-1)
+            cells = cells[flat[cells]]
+            seen_free = np.unique(
+                cells[sensed.log_odds.reshape(-1)[cells] <= self.settings.suspect_cleared]
+            )
+            if seen_free.size:
+                flat[seen_free] = False
+                self._suspected_count -= int(seen_free.size)
+                layers = (self._contact, self._suspected)
+                self._changed(self._touched_map.remove(layers, seen_free))
                 changed = True
+        self._newly_suspected = []
         if changed:
             self.version += 1
         if not became.size:
@@ -123,7 +150,9 @@ class WorldModel:
         if np.any(new):
             window |= disc
             ii, jj = np.nonzero(new)
-            self._contact_map.add(self._contact, (ii + i0) * grid.ny + (jj + j0))
+            cells = (ii + i0) * grid.ny + (jj + j0)
+            self._changed(self._contact_map.add(self._contact, cells))
+            self._changed(self._touched_map.add(self._contact, cells))
             self.version += 1
 
     def add_suspected(self, points: Iterable[tuple[float, float]]) -> None:
@@ -133,12 +162,13 @@ class WorldModel:
         if pts.size == 0:
             return
         flat, inside = self.grid.locate(pts.reshape(-1, 2))
-        cells = np.zeros(self.grid.shape, dtype=bool).ravel()
-        cells[flat[inside]] = True
-        cells = cells.reshape(self.grid.shape) & ~self._contact
-        if np.any(cells & ~self._suspected):
-            self._suspected |= cells
-            self._suspected_any = True
+        cells = np.unique(flat[inside])
+        cells = cells[~self._contact.reshape(-1)[cells] & ~self._suspected.reshape(-1)[cells]]
+        if cells.size:
+            self._suspected.reshape(-1)[cells] = True
+            self._suspected_count += int(cells.size)
+            self._newly_suspected.append(cells)
+            self._changed(self._touched_map.add(self._suspected, cells))
             self.version += 1
 
     def suspected(self) -> NDArray[np.bool_]:
@@ -156,6 +186,7 @@ class WorldModel:
         if np.any(dist < window):
             np.minimum(window, dist, out=window)
             np.minimum(self._static[i0:i1, j0:j1], dist, out=self._static[i0:i1, j0:j1])
+            self._changed((i0, i1, j0, j1))
             self.version += 1
 
     def remove_known(self, obstacle: Obstacle) -> bool:
@@ -166,6 +197,7 @@ class WorldModel:
         remaining, version = [o for o in self._known if o != obstacle], self.version
         self._known = []
         self._reset_static()
+        self._changed(None)
         for other in remaining:
             self.add_known(other)
         self.version = version + 1  # one change, however many obstacles were re-added
@@ -220,25 +252,53 @@ class WorldModel:
         ``contact_inflation`` (default: the same); known obstacles and walls exact. The head
         sees only part of a hidden obstacle, and a bumper only the point it pressed: the rest
         lies beyond. With ``suspected``, suspected-surface cells count as contact cells.
-        Cached per inflation until ``version`` changes."""
+        One grid per inflation, brought up to date only where the layers changed since."""
         grow_contact = inflation if contact_inflation is None else contact_inflation
-        suspect = suspected and self._suspected_any
-        key = ("inflated", inflation, grow_contact, suspect)
-        grid = self._cached(key)
+        key = (inflation, grow_contact, suspected and self._suspected_any)
+        grid = self._inflated.get(key)
         if grid is None:
-            if grow_contact == inflation and not suspect:
-                grown = np.maximum(self._dynamic() - inflation, 0.0)
-            else:
-                sensed = np.maximum(self._sensed_map.get(self._sensed.occupied) - inflation, 0.0)
-                if suspect:  # suspected cells come and go with beams: transformed afresh
-                    cap = self.settings.max_clearance
-                    near = clearance_map(self._contact | self._suspected, self.grid.resolution, cap)
-                else:
-                    near = self._contact_map.get(self._contact)
-                touched = np.maximum(near - grow_contact, 0.0)
-                grown = np.minimum(sensed, touched)
-            grid = self._store(key, np.minimum(self._static, grown))
+            grid = self._inflated[key] = self._inflate(key, None)
+        else:
+            for window in self._stale[key]:  # bring it up to date where the layers changed
+                i0, i1, j0, j1 = window
+                grid[i0:i1, j0:j1] = self._inflate(key, window)
+        self._stale[key] = []
         return bilinear(grid, self.grid, np.asarray(points, dtype=float), self.bounds)
+
+    def _inflate(self, key: tuple[float, float, bool], window: Window | None) -> Array:
+        """``inflated_clearance_at``'s grid for ``key`` (inflation, contact inflation, whether
+        suspected cells count), over ``window`` (``None``: all of it). Element by element, so a
+        window of it equals the same window of the whole."""
+        inflation, grow_contact, suspect = key
+        cells = (
+            np.s_[:, :] if window is None else np.s_[window[0] : window[1], window[2] : window[3]]
+        )
+        sensed = self._sensed_map.get(self._sensed.occupied)[cells]
+        if grow_contact == inflation and not suspect:
+            dynamic = np.minimum(sensed, self._contact_map.get(self._contact)[cells])
+            grown = np.maximum(dynamic - inflation, 0.0)
+        else:
+            grown_sensed = np.maximum(sensed - inflation, 0.0)
+            if suspect:
+                near = self._touched_map.get(self._contact, self._suspected)[cells]
+            else:
+                near = self._contact_map.get(self._contact)[cells]
+            touched = np.maximum(near - grow_contact, 0.0)
+            grown = np.minimum(grown_sensed, touched)
+        out: Array = np.minimum(self._static[cells], grown)
+        return out
+
+    def _changed(self, window: Window | None) -> None:
+        """The layers changed within ``window`` (``None``: anywhere): the inflated grids are
+        brought up to date there when next read (forgotten when too much has changed)."""
+        for key in list(self._inflated):
+            stale = self._stale[key]
+            if window is None or len(stale) >= MAX_STALE_WINDOWS:
+                del self._inflated[key], self._stale[key]
+            elif stale and _overlap(stale[-1], window):
+                stale[-1] = _union(stale[-1], window)  # one update of both (nearby changes)
+            else:
+                stale.append(window)
 
     def clearance_at(self, points: Array) -> Array:
         """Clearance at world points ``[..., 2]``: bilinear between cell centres, exact to the
@@ -369,3 +429,13 @@ class WorldModel:
         value.flags.writeable = False  # shared with callers until the next change
         self._cache[key] = value
         return value
+
+
+def _overlap(a: Window, b: Window) -> bool:
+    """Whether two windows share cells."""
+    return a[0] < b[1] and b[0] < a[1] and a[2] < b[3] and b[2] < a[3]
+
+
+def _union(a: Window, b: Window) -> Window:
+    """The smallest window holding both."""
+    return min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3])
