@@ -84,8 +84,27 @@ def footprint_of(js: Array, tip: Array, geometry: RobotGeometry = DEFAULT_GEOMET
     computed (the simulator has them at hand)."""
     starts = np.concatenate([tip[..., None, :], js[..., :-1, :]], axis=-2)
     ends = np.concatenate([js[..., :1, :], js[..., 1:, :]], axis=-2)
-    radii = np.array([geometry.head_radius] + [geometry.unit_radius] * 4)
-    return Footprint(starts, ends, radii)
+    return Footprint(starts, ends, footprint_radii(geometry))
+
+
+def footprint_of_chain(chain: Array, geometry: RobotGeometry = DEFAULT_GEOMETRY) -> Footprint:
+    """The footprint of one pose from its chain ``[6, 2]``: the head tip, then the joint
+    positions (``footprint_of`` of those, the same capsules as views of one array)."""
+    return Footprint(chain[:-1], chain[1:], footprint_radii(geometry))
+
+
+_RADII: dict[tuple[float, float], Array] = {}
+
+
+def footprint_radii(geometry: RobotGeometry = DEFAULT_GEOMETRY) -> Array:
+    """The capsules' radii ``[5]`` (head, units 1-4): one read-only array per geometry."""
+    key = (geometry.head_radius, geometry.unit_radius)
+    radii = _RADII.get(key)
+    if radii is None:
+        radii = np.array([geometry.head_radius] + [geometry.unit_radius] * 4)
+        radii.flags.writeable = False
+        _RADII[key] = radii
+    return radii
 
 
 SIDES = ("front", "rear", "left", "right")
@@ -119,10 +138,22 @@ class World:
     _near_cache: dict[float, tuple[tuple[float, float], NDArray[np.int64], Scene]] = field(
         init=False, repr=False, compare=False, default_factory=dict
     )
+    _full: list[tuple[Scene, Array]] = field(
+        init=False, repr=False, compare=False, default_factory=list
+    )
 
     def __post_init__(self) -> None:
         corners = self.bounds.corners()
         object.__setattr__(self, "_walls", (corners, np.roll(corners, -1, axis=0)))
+
+    @property
+    def _everything(self) -> tuple[Scene, Array]:
+        """The scene of every obstacle and the bounds as an array (for the compiled gap)."""
+        if not self._full:
+            b = self.bounds
+            box = np.array([b.xmin, b.xmax, b.ymin, b.ymax])
+            self._full.append((self._scene(tuple(range(len(self.obstacles)))), box))
+        return self._full[0]
 
     def _scene(self, indices: tuple[int, ...]) -> Scene:
         """The packed arrays of the obstacles at ``indices`` (cached: a mission meets few sets)."""
@@ -320,14 +351,13 @@ class World:
         """Whether ``distance <= gap(fp)``, measuring only obstacles that could decide it
         (those whose bounding boxes come within ``distance`` + the largest radius)."""
         if collision_kernel.AVAILABLE and fp.starts.ndim == 2:
-            scene = self._scene(tuple(range(len(self.obstacles))))
-            b = self.bounds
+            scene, box = self._everything
             gap: float = collision_kernel.gap(
                 fp.starts,
                 fp.ends,
                 fp.radii,
-                np.array([b.xmin, b.xmax, b.ymin, b.ymax]),
-                distance + float(np.max(fp.radii)),
+                box,
+                distance + max(fp.radii.tolist()),
                 scene.boxes,
                 scene.kind,
                 scene.centres,
