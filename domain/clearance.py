@@ -22,6 +22,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from domain import occupancy_kernel
 from domain.grid import Flat, Grid
 from sim.robot import Array
 
@@ -29,12 +30,76 @@ Window = tuple[int, int, int, int]  # cells i0:i1, j0:j1
 
 
 def clearance_map(occupied: NDArray[np.bool_], resolution: float, cap: float) -> Array:
-    """Clearance ``[nx, ny]`` of every cell centre to the occupied cells (``cap`` if none)."""
+    """Clearance ``[nx, ny]`` of every cell centre to the occupied cells (``cap`` if none).
+
+    Compiled (``_compiled_map``) when numba is there, else scipy's transform: the same
+    numbers either way."""
     if not np.any(occupied):
         return np.full(occupied.shape, cap)
+    if occupancy_kernel.AVAILABLE:
+        out = np.empty(occupied.shape)
+        _compiled_map(np.ascontiguousarray(occupied), resolution, cap, out)
+        return out
     dist = ndimage.distance_transform_edt(~occupied) * resolution - 0.5 * resolution
-    out: Array = np.clip(dist, 0.0, cap)
-    return out
+    clipped: Array = np.clip(dist, 0.0, cap)
+    return clipped
+
+
+@occupancy_kernel._jit
+def _compiled_map(  # pragma: no cover - compiled
+    occupied: NDArray[np.bool_], resolution: float, cap: float, out: Array
+) -> None:
+    """``clearance_map`` into ``out``: the exact squared distance (in cells) of every cell to
+    the nearest occupied one by Meijster, Roerdink and Hesselink's two passes (integers
+    throughout), then as scipy's transform turns it into metres: the square root of the
+    squared distance as a float, times ``resolution``, less half a cell, clipped."""
+    nx, ny = occupied.shape
+    far = nx + ny  # further than any cell: "nothing in this column"
+    g = np.empty((nx, ny), dtype=np.int64)
+    # down each column (row by row, for memory order): the distance to the nearest occupied
+    # cell of the column above, then below
+    for j in range(ny):
+        g[0, j] = 0 if occupied[0, j] else far
+    for i in range(1, nx):
+        for j in range(ny):
+            g[i, j] = 0 if occupied[i, j] else min(g[i - 1, j] + 1, far)
+    for i in range(nx - 2, -1, -1):
+        for j in range(ny):
+            if g[i + 1, j] < g[i, j]:
+                g[i, j] = g[i + 1, j] + 1
+    s = np.empty(ny, dtype=np.int64)
+    t = np.empty(ny, dtype=np.int64)
+    g2 = np.empty(ny, dtype=np.int64)
+    half = 0.5 * resolution
+    for i in range(nx):  # along each row: the lower envelope of the columns' parabolas
+        for u in range(ny):
+            g2[u] = g[i, u] * g[i, u]
+        q = 0
+        s[0] = 0
+        t[0] = 0
+        for u in range(1, ny):
+            while q >= 0:
+                a, x = s[q], t[q]
+                if (x - a) * (x - a) + g2[a] <= (x - u) * (x - u) + g2[u]:
+                    break
+                q -= 1
+            if q < 0:
+                q = 0
+                s[0] = u
+            else:
+                a = s[q]
+                w = 1 + (u * u - a * a + g2[u] - g2[a]) // (2 * (u - a))
+                if w < ny:
+                    q += 1
+                    s[q] = u
+                    t[q] = w
+        for u in range(ny - 1, -1, -1):
+            a = s[q]
+            d2 = (u - a) * (u - a) + g2[a]
+            dist = math.sqrt(float(d2)) * resolution - half
+            out[i, u] = min(max(dist, 0.0), cap)
+            if u == t[q]:
+                q -= 1
 
 
 class DistanceMap:

@@ -145,3 +145,25 @@ def test_inflated_clearance_kept_current_equals_a_rebuild(seed: int) -> None:
             want = reference_inflated(model, inflation, grow, suspect and model.suspected().any())
             np.testing.assert_array_equal(got, bilinear(want, model.grid, centres, bounds))
     assert suspected_seen and model.contact_occupied().any()
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_compiled_transform_equals_scipys(seed: int) -> None:
+    """The compiled clearance map gives scipy's transform's numbers, value for value: sparse,
+    dense, thin and one-cell grids, several resolutions and caps."""
+    from scipy import ndimage
+
+    from domain import occupancy_kernel
+
+    if not occupancy_kernel.AVAILABLE:
+        pytest.skip("numba kernels are off")
+    rng = np.random.default_rng(seed)
+    for _ in range(40):
+        nx, ny = (int(n) for n in rng.integers(1, 70, 2))
+        occupied = rng.random((nx, ny)) < rng.choice([0.002, 0.02, 0.2, 0.6, 0.95])
+        occupied.flat[int(rng.integers(occupied.size))] = True
+        resolution, cap = float(rng.choice([0.03, 0.05, 0.1])), float(rng.choice([0.3, 2.0, 50.0]))
+        scipy_map = np.clip(
+            ndimage.distance_transform_edt(~occupied) * resolution - 0.5 * resolution, 0.0, cap
+        )
+        np.testing.assert_array_equal(clearance_map(occupied, resolution, cap), scipy_map)
