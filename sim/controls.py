@@ -65,7 +65,10 @@ def check_joint_angles(phi: Array, geometry: RobotGeometry, name: str = "joints"
 def clamp_joints(phi: Array, geometry: RobotGeometry) -> Array:
     """Keep joints off the singular all-parallel shapes at exactly ±π/2 (kinematics.md §3)."""
     m = geometry.max_joint_angle
-    return np.clip(phi, -m, m)
+    # np.clip's own numbers (the larger of phi and -m, then the smaller of that and m)
+    # without its Python-level checks: the simulator clamps three angles every step
+    out: Array = np.minimum(np.maximum(phi, -m), m)
+    return out
 
 
 @dataclass(frozen=True)
