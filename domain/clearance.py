@@ -102,6 +102,27 @@ def _compiled_map(  # pragma: no cover - compiled
                 q -= 1
 
 
+FEW_CELLS = 8  # added cells measured one by one (beyond: a transform of their window)
+
+
+@occupancy_kernel._jit
+def _add_few(  # pragma: no cover - compiled
+    view: Array, ci: Flat, cj: Flat, resolution: float, cap: float
+) -> None:
+    """``view`` becomes its minimum with the clearance to the cells (``ci``, ``cj``) of it:
+    each cell's squared distance (in cells) to the nearest of them, turned into metres as
+    ``_compiled_map`` turns it, so the same numbers as transforming them."""
+    half = 0.5 * resolution
+    nx, ny = view.shape
+    for i in range(nx):
+        for j in range(ny):
+            d2 = (i - ci[0]) * (i - ci[0]) + (j - cj[0]) * (j - cj[0])
+            for k in range(1, ci.size):
+                d2 = min(d2, (i - ci[k]) * (i - ci[k]) + (j - cj[k]) * (j - cj[k]))
+            dist = min(max(math.sqrt(float(d2)) * resolution - half, 0.0), cap)
+            view[i, j] = min(view[i, j], dist)
+
+
 class DistanceMap:
     """The clearance map of one occupancy layer, updated as cells are added or removed.
 
@@ -141,11 +162,15 @@ class DistanceMap:
         i0, i1, j0, j1 = self.window(cells)
         if self._map is not None:
             i, j = np.divmod(cells, self.grid.ny)
-            added = np.zeros((i1 - i0, j1 - j0), dtype=bool)
-            added[i - i0, j - j0] = True
-            near = clearance_map(added, self.grid.resolution, self.cap)
             view = self._map[i0:i1, j0:j1]
-            np.minimum(view, near, out=view)
+            if occupancy_kernel.AVAILABLE and cells.size <= FEW_CELLS:
+                # a few cells: their distances directly, as the transform would find them
+                _add_few(view, i - i0, j - j0, self.grid.resolution, self.cap)
+            else:
+                added = np.zeros((i1 - i0, j1 - j0), dtype=bool)
+                added[i - i0, j - j0] = True
+                near = clearance_map(added, self.grid.resolution, self.cap)
+                np.minimum(view, near, out=view)
         return i0, i1, j0, j1
 
     def remove(self, layers: tuple[NDArray[np.bool_], ...], cells: Flat) -> Window | None:

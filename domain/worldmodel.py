@@ -34,6 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from domain import occupancy_kernel
 from domain.clearance import DistanceMap, Window
 from domain.grid import Flat
 from domain.interpolate import bilinear
@@ -257,36 +258,36 @@ class WorldModel:
         key = (inflation, grow_contact, suspected and self._suspected_any)
         grid = self._inflated.get(key)
         if grid is None:
-            grid = self._inflated[key] = self._inflate(key, None)
+            grid = self._inflated[key] = np.empty(self.grid.shape)
+            self._inflate(key, (0, self.grid.nx, 0, self.grid.ny), grid)
         else:
             for window in self._stale[key]:  # bring it up to date where the layers changed
-                i0, i1, j0, j1 = window
-                grid[i0:i1, j0:j1] = self._inflate(key, window)
+                self._inflate(key, window, grid)
         self._stale[key] = []
         return bilinear(grid, self.grid, np.asarray(points, dtype=float), self.bounds)
 
-    def _inflate(self, key: tuple[float, float, bool], window: Window | None) -> Array:
+    def _inflate(self, key: tuple[float, float, bool], window: Window, out: Array) -> None:
         """``inflated_clearance_at``'s grid for ``key`` (inflation, contact inflation, whether
-        suspected cells count), over ``window`` (``None``: all of it). Element by element, so a
-        window of it equals the same window of the whole."""
+        suspected cells count) over ``window`` of ``out``: sensed cells' clearance less the
+        inflation, the contacts' (with suspected cells, if they count) less theirs, at least 0,
+        at most the static layer's. Element by element, so a window of it equals the same
+        window of the whole; the smaller of two clearances less one inflation is the smaller
+        clearance less it, so one formula serves equal inflations too."""
         inflation, grow_contact, suspect = key
-        cells = (
-            np.s_[:, :] if window is None else np.s_[window[0] : window[1], window[2] : window[3]]
-        )
-        sensed = self._sensed_map.get(self._sensed.occupied)[cells]
-        if grow_contact == inflation and not suspect:
-            dynamic = np.minimum(sensed, self._contact_map.get(self._contact)[cells])
-            grown = np.maximum(dynamic - inflation, 0.0)
+        sensed = self._sensed_map.get(self._sensed.occupied)
+        if suspect:
+            near = self._touched_map.get(self._contact, self._suspected)
         else:
-            grown_sensed = np.maximum(sensed - inflation, 0.0)
-            if suspect:
-                near = self._touched_map.get(self._contact, self._suspected)[cells]
-            else:
-                near = self._contact_map.get(self._contact)[cells]
-            touched = np.maximum(near - grow_contact, 0.0)
-            grown = np.minimum(grown_sensed, touched)
-        out: Array = np.minimum(self._static[cells], grown)
-        return out
+            near = self._contact_map.get(self._contact)
+        if occupancy_kernel.AVAILABLE:
+            _inflate_window(self._static, sensed, near, inflation, grow_contact, window, out)
+            return
+        i0, i1, j0, j1 = window
+        grown = np.minimum(
+            np.maximum(sensed[i0:i1, j0:j1] - inflation, 0.0),
+            np.maximum(near[i0:i1, j0:j1] - grow_contact, 0.0),
+        )
+        out[i0:i1, j0:j1] = np.minimum(self._static[i0:i1, j0:j1], grown)
 
     def _changed(self, window: Window | None) -> None:
         """The layers changed within ``window`` (``None``: anywhere): the inflated grids are
@@ -439,3 +440,21 @@ def _overlap(a: Window, b: Window) -> bool:
 def _union(a: Window, b: Window) -> Window:
     """The smallest window holding both."""
     return min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3])
+
+
+@occupancy_kernel._jit
+def _inflate_window(  # pragma: no cover - compiled
+    static: Array,
+    sensed: Array,
+    near: Array,
+    inflation: float,
+    grow: float,
+    window: Window,
+    out: Array,
+) -> None:
+    """``WorldModel._inflate``'s numpy formula, cell by cell over ``window`` of ``out``."""
+    for i in range(window[0], window[1]):
+        for j in range(window[2], window[3]):
+            a = max(sensed[i, j] - inflation, 0.0)
+            b = max(near[i, j] - grow, 0.0)
+            out[i, j] = min(static[i, j], min(a, b))
