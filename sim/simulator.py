@@ -26,6 +26,9 @@ from sim.sensors import SensorReadings, SensorSuite
 from sim.world import Contact, World, footprint, footprint_of_chain
 
 
+TWISTS_KEPT = 256  # body twists remembered per simulator (screw speeds and shapes met)
+
+
 @dataclass(frozen=True)
 class EventRecord:
     """Something that happened during a step, for logs and the API."""
@@ -82,7 +85,7 @@ class Simulator:
         self.pose = p.copy()
         self.joints = clamp_joints(j, self.geometry)[0]
         self.forced: Array | None = None
-        self._last_twist: tuple[bytes, Array] | None = None
+        self._twists: dict[bytes, Array] = {}  # body_twist by screw speeds and shape
         self._bodies: list[tuple[bytes, Array]] = []
         self.dropouts: list[SensorDropout] = []
         self.pending = list(self.events)
@@ -169,14 +172,19 @@ class Simulator:
         )
 
     def _twist(self, theta: Array, phi: Array, dphi: Array | None) -> Array:
-        """``body_twist``, remembered for the last screw speeds and shape: a primitive holds
-        both for many steps (the same inputs give the same twist)."""
+        """``body_twist``, remembered for the screw speeds and shapes met so far (at most
+        ``TWISTS_KEPT``): a primitive holds both for many steps, and a plan runs the same
+        library primitives again and again (the same inputs give the same twist)."""
         if dphi is not None:
             return body_twist(theta, phi, dphi, self.geometry)
         key = theta.tobytes() + phi.tobytes()
-        if self._last_twist is None or self._last_twist[0] != key:
-            self._last_twist = (key, body_twist(theta, phi, None, self.geometry))
-        return self._last_twist[1]
+        twist = self._twists.get(key)
+        if twist is None:
+            if len(self._twists) >= TWISTS_KEPT:
+                self._twists.clear()
+            twist = self._twists[key] = body_twist(theta, phi, None, self.geometry)
+            twist.flags.writeable = False  # shared by every step that meets these inputs
+        return twist
 
     def _body(self, pose: Array, phi: Array) -> Array:
         """The chain (head tip, joint positions) at (pose, phi), the last two answers
