@@ -25,7 +25,6 @@ from sim.rollout import JOINT_MODES, JointMode
 from sim.sensors import SensorReadings, SensorSuite
 from sim.world import Contact, World, footprint, footprint_of_chain
 
-
 TWISTS_KEPT = 256  # body twists remembered per simulator (screw speeds and shapes met)
 
 
