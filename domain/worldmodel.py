@@ -198,7 +198,8 @@ class WorldModel:
         remaining, version = [o for o in self._known if o != obstacle], self.version
         self._known = []
         self._reset_static()
-        self._changed(None)
+        self._inflated.clear()  # the static layer changed everywhere: rebuilt when next read
+        self._stale.clear()
         for other in remaining:
             self.add_known(other)
         self.version = version + 1  # one change, however many obstacles were re-added
@@ -290,11 +291,13 @@ class WorldModel:
         out[i0:i1, j0:j1] = np.minimum(self._static[i0:i1, j0:j1], grown)
 
     def _changed(self, window: Window | None) -> None:
-        """The layers changed within ``window`` (``None``: anywhere): the inflated grids are
-        brought up to date there when next read (forgotten when too much has changed)."""
+        """The layers changed within ``window`` (``None``: nowhere): the inflated grids are
+        brought up to date there when next read (rebuilt when too much has changed)."""
+        if window is None:
+            return
         for key in list(self._inflated):
             stale = self._stale[key]
-            if window is None or len(stale) >= MAX_STALE_WINDOWS:
+            if len(stale) >= MAX_STALE_WINDOWS:
                 del self._inflated[key], self._stale[key]
             elif stale and _overlap(stale[-1], window):
                 stale[-1] = _union(stale[-1], window)  # one update of both (nearby changes)
