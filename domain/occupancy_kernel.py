@@ -109,7 +109,7 @@ def sweep_and_clear(  # pragma: no cover - compiled
     ``log_odds_free`` per beam, clamped at ``log_odds_min``.
 
     Returns the arc cells of all hits concatenated, their likelihoods, each hit's first arc
-    cell (``[H + 1]`` bounds), and the cleared cells (sorted, distinct).
+    cell (``[H + 1]`` bounds), and the cleared cells (distinct, in the order found).
     """
     ox, oy, res = grid[0], grid[1], grid[2]
     nx, ny = shape[0], shape[1]
@@ -179,7 +179,7 @@ def sweep_and_clear(  # pragma: no cover - compiled
                     cleared[n_cleared] = c
                     n_cleared += 1
                 acc[c] += 1.0  # a count, exact in floating point
-    cells = np.sort(cleared[:n_cleared])
+    cells = cleared[:n_cleared]  # each cell once, in the order found (updates are per cell)
     for m in range(n_cleared):
         c = cells[m]
         counts[m] = int(acc[c])
@@ -261,18 +261,27 @@ def share_and_mark(  # pragma: no cover - compiled
         now = log_odds[c]
         log_odds[c] = max(now, min(now + vague_acc[c], ambiguous_ceiling))
         vague_acc[c] = 0.0
-    touched = np.concatenate((cleared, sure_cells[:n_sure], vague_cells[:n_vague]))
+    # Threshold every cell touched (cleared, sure or vague) once: each is marked (3) when its
+    # turn comes; only the few that changed are sorted, as np.unique would have ordered them.
     for m in range(n_sure):
         mark[sure_cells[m]] = -1
     for m in range(n_vague):
         mark[vague_cells[m]] = -1
-    touched = np.unique(touched)
-    became = np.empty(touched.size, dtype=np.int64)
-    ceased = np.empty(touched.size, dtype=np.int64)
+    total = cleared.size + n_sure + n_vague
+    became = np.empty(total, dtype=np.int64)
+    ceased = np.empty(total, dtype=np.int64)
     n_became = 0
     n_ceased = 0
-    for m in range(touched.size):
-        c = touched[m]
+    for m in range(total):
+        if m < cleared.size:
+            c = cleared[m]
+        elif m < cleared.size + n_sure:
+            c = sure_cells[m - cleared.size]
+        else:
+            c = vague_cells[m - cleared.size - n_sure]
+        if mark[c] == 3:
+            continue
+        mark[c] = 3
         before = occupied[c]
         after = log_odds[c] > threshold
         occupied[c] = after
@@ -282,7 +291,13 @@ def share_and_mark(  # pragma: no cover - compiled
         elif before and not after:
             ceased[n_ceased] = c
             n_ceased += 1
-    return became[:n_became], ceased[:n_ceased]
+    for m in range(cleared.size):  # forget the marks
+        mark[cleared[m]] = -1
+    for m in range(n_sure):
+        mark[sure_cells[m]] = -1
+    for m in range(n_vague):
+        mark[vague_cells[m]] = -1
+    return np.sort(became[:n_became]), np.sort(ceased[:n_ceased])
 
 
 @_jit
