@@ -1,8 +1,8 @@
 """Clearance to one layer's occupied cells, kept current without re-running the whole transform.
 
 The clearance of a cell to a layer is the distance between its centre and the nearest occupied
-cell's, minus half a cell, clipped to ``[0, cap]`` (a Euclidean distance transform, scipy's
-``ndimage``). A tick of sensing adds or removes a few occupied cells; their effect reaches no
+cell's, minus half a cell, clipped to ``[0, cap]`` (an exact Euclidean distance transform:
+compiled, or scipy's ``ndimage`` without numba, the same numbers). A tick of sensing adds or removes a few occupied cells; their effect reaches no
 further than ``cap`` plus half a cell, so ``DistanceMap`` updates only a window around them:
 
 - **added** cells: the transform of the added cells alone over the window, and the minimum with
