@@ -202,22 +202,44 @@ def main(argv: list[str] | None = None) -> int:
         parser.error(f"--against: {args.against} is not a checkout of this project")
     print(f"per-tick split in {args.clock} time", flush=True)
     print(HEADER, flush=True)
-    speedups = []
+    speedups, rest_here, rest_other = [], [], []
     for p in paths:
         other = child([p], args.against, args.repeat, args.clock) if args.against else None
         here = measure(p, args.repeat, args.clock)
         print(line(here, "this"), flush=True)
+        if here["ticks"]:
+            rest_here.append(non_planning(here))
         if other is not None:
             print(line(other, "other"), flush=True)
+            if not (here["ticks"] and other["ticks"]):
+                print(f"{'':<7}no control tick ran: no speed-up per tick", flush=True)
+                continue
+            rest_other.append(non_planning(other))
             per_tick = (other["wall"] / other["ticks"]) / (here["wall"] / here["ticks"])
             per_cpu = (other["cpu"] / other["ticks"]) / (here["cpu"] / here["ticks"])
             speedups.append(per_tick)
-            print(f"{'':<7}speed-up per tick: {per_tick:.2f}x wall, {per_cpu:.2f}x CPU", flush=True)
+            print(
+                f"{'':<7}speed-up per tick: {per_tick:.2f}x wall, {per_cpu:.2f}x CPU; "
+                f"all but replanning: {non_planning(other) / non_planning(here):.2f}x",
+                flush=True,
+            )
+    if rest_here:
+        print(
+            f"all but replanning, µs per tick over {len(rest_here)} missions: median "
+            f"{statistics.median(rest_here):.0f}, range {min(rest_here):.0f}-{max(rest_here):.0f}"
+            + (f" (other: median {statistics.median(rest_other):.0f})" if rest_other else "")
+        )
     if speedups:
         print(
             f"median speed-up per tick over {len(speedups)} missions: {statistics.median(speedups):.2f}x"
         )
     return 0
+
+
+def non_planning(row: dict[str, Any]) -> float:
+    """µs per tick of everything but replanning (simulator, sensing, world model, steering,
+    executor)."""
+    return float(sum(v for k, v in row["per_tick_us"].items() if k != "replanning"))
 
 
 if __name__ == "__main__":
