@@ -230,11 +230,11 @@ def body_chain(pose: Array, phi: Array, geometry: RobotGeometry) -> Array:
     cos, sin = np.cos(angles).tolist(), np.sin(angles).tolist()
     seg = [*geometry.segments.tolist(), geometry.unit_length]
     hl = geometry.head_length
-    points = [[x + hl * cos[4], y + hl * sin[4]], [x, y]]
+    points = [x + hl * cos[4], y + hl * sin[4], x, y]
     ox = oy = 0.0
     for i in range(4):
         # cumsum adds from the first term: 0 + a == a, so start from the first step itself
         sx, sy = seg[i] * cos[i], seg[i] * sin[i]
         ox, oy = (sx, sy) if i == 0 else (ox + sx, oy + sy)
-        points.append([x + ox, y + oy])
-    return np.array(points)
+        points += (x + ox, y + oy)
+    return np.array(points).reshape(6, 2)
