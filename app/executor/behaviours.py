@@ -163,10 +163,12 @@ class ShapeGuard(MissionBehaviour):
 
     def update(self) -> Status:
         ctx = self.ctx
-        sensed = ctx.observation.joints  # three floats: compared as such, every tick
-        if not all(math.isfinite(v) for v in sensed) or SHAPES[ctx.shape].periodic:
+        a, b, c = sensed = ctx.observation.joints  # three floats: compared as such, every tick
+        finite = math.isfinite
+        if not (finite(a) and finite(b) and finite(c)) or SHAPES[ctx.shape].periodic:
             return Status.SUCCESS  # no reading (dropout), or the gait moves the joints on purpose
-        if max(abs(v - c) for v, c in zip(sensed, ctx.joints, strict=True)) <= SHAPE_TOLERANCE:
+        ca, cb, cc = ctx.joints
+        if max(abs(a - ca), abs(b - cb), abs(c - cc)) <= SHAPE_TOLERANCE:
             return Status.SUCCESS
         joints = (float(sensed[0]), float(sensed[1]), float(sensed[2]))
         coverage = ctx.library.covers(joints)
