@@ -37,8 +37,8 @@ def as_batch(value: ArrayLike, width: int, name: str) -> Array:
 def _single(value: ArrayLike, width: int) -> list[float] | None:
     """``value`` as ``width`` finite floats when it is one plain vector of them (a float array
     ``[width]``, or a list or tuple of floats), else ``None`` (``as_batch`` decides)."""
-    if isinstance(value, np.ndarray):
-        if value.dtype != np.float64 or value.shape != (width,):
+    if type(value) is np.ndarray:
+        if value.shape != (width,) or value.dtype.char != "d":
             return None
         out: list[float] = value.tolist()
     elif isinstance(value, list | tuple) and len(value) == width:
@@ -47,7 +47,9 @@ def _single(value: ArrayLike, width: int) -> list[float] | None:
         out = list(value)
     else:
         return None
-    return out if all(math.isfinite(v) for v in out) else None
+    # a NaN or an infinity makes the sum one (finite values may overflow it: then the
+    # batched path decides, as it does for anything else)
+    return out if math.isfinite(sum(out)) else None
 
 
 def check_screw_speeds(theta: Array, geometry: RobotGeometry, name: str = "theta") -> None:
