@@ -1,7 +1,7 @@
 """What navigation plans keep clear of, in tiers tried in turn: the sensed world model's
 obstacles inflated by how little is known of them, suspected surfaces (where a touched one
 probably goes on) avoided, then passed closely near the goals, then planned through, and last
-contacts passed only just."""
+contacts and what the head saw passed only just."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ from sim.robot import Array
 SENSED_INFLATION = 0.05  # metres plans keep beyond what the head saw of a hidden obstacle
 CONTACT_INFLATION = 0.1  # ... and beyond where a bumper touched one (it felt a single point)
 CONTACT_BARE = 0.02  # ... when no plan exists otherwise: a new touch adds a new contact point
+SENSED_BARE = 0.01  # ... and from what the head saw (squeezing past debris in a pipe)
 GOAL_UNSUSPECTED = (
     1.0  # metres round a goal where contacts and suspected surfaces are passed closely
 )
@@ -27,15 +28,16 @@ Suspected = Literal["all", "off-goals", "none"]
 class Tier:
     """One way of keeping clear: suspected surfaces ``all`` avoided, avoided ``off-goals``
     (within ``GOAL_UNSUSPECTED`` of a goal, they and contacts kept only ``CONTACT_BARE`` clear),
-    or ``none``; contacts grown by ``grow`` metres."""
+    or ``none``; contacts grown by ``grow`` metres, sensed cells by ``sensed``."""
 
     suspected: Suspected
     grow: float = CONTACT_INFLATION
+    sensed: float = SENSED_INFLATION
 
 
 def tiers(any_suspected: bool) -> list[Tier]:
     """The tiers in the order a planner tries them."""
-    out = [Tier("none"), Tier("none", CONTACT_BARE)]
+    out = [Tier("none"), Tier("none", CONTACT_BARE, SENSED_BARE)]
     return [Tier("all"), Tier("off-goals"), *out] if any_suspected else out
 
 
@@ -47,9 +49,7 @@ def tier_clearance(
         avoid = tier.suspected != "none"
 
         def clearance(pts: Array) -> Array:
-            out: Array = world.inflated_clearance_at(
-                pts, SENSED_INFLATION, tier.grow, suspected=avoid
-            )
+            out: Array = world.inflated_clearance_at(pts, tier.sensed, tier.grow, suspected=avoid)
             return out
 
         return clearance
@@ -58,13 +58,13 @@ def tier_clearance(
     def off_goals(pts: Array) -> Array:
         pts = np.asarray(pts, dtype=float)
         out: Array = np.array(
-            world.inflated_clearance_at(pts, SENSED_INFLATION, tier.grow, suspected=True),
+            world.inflated_clearance_at(pts, tier.sensed, tier.grow, suspected=True),
             dtype=float,
         )
         close = np.linalg.norm(pts[..., None, :] - centres, axis=-1).min(axis=-1) < GOAL_UNSUSPECTED
         if np.any(close):  # the second lookup only where it decides
             out[close] = world.inflated_clearance_at(
-                pts[close], SENSED_INFLATION, CONTACT_BARE, suspected=True
+                pts[close], tier.sensed, CONTACT_BARE, suspected=True
             )
         return out
 

@@ -31,6 +31,7 @@ from domain.lattice_pddl import LatticeGraph
 from domain.lattice_plan import LatticeAction
 from domain.lattice_task import Clearance, LatticeTask, start_allowance
 from domain.pyperplan_adapter import CancelFlag, SearchStopped
+from domain.touching import TouchAllowance
 from sim.robot import Array
 
 REJOIN_AFTER = 2  # moves past the last blocked one where a detour may join the old plan ...
@@ -80,18 +81,23 @@ def moves_free(
     table: MotionTable,
     clearance: Clearance,
     moves: Sequence[tuple[int, int]],
-    margins: Sequence[float],
+    margins: Sequence[float | TouchAllowance],
 ) -> NDArray[np.bool_]:
     """Whether each move ``(state number, motion index)`` keeps its margin clear along its
-    swept footprint: one clearance query for all of them."""
+    swept footprint (a move out of where the robot touches something: its allowance's margins):
+    one clearance query for all of them."""
     points, needs, owner = [], [], []
     for n, ((number, m), margin) in enumerate(zip(moves, margins, strict=True)):
         i, j, k = grid.decode(number)
         seg = table.segments[k]
         lo = int(seg[m])
         hi = int(seg[m + 1]) if m + 1 < len(seg) else len(table.points[k])
-        points.append(grid.centre(i, j) + table.points[k][lo:hi])
-        needs.append(table.needs[k][lo:hi] + margin)
+        at = grid.centre(i, j) + table.points[k][lo:hi]
+        points.append(at)
+        needs.append(
+            table.needs[k][lo:hi]
+            + (margin.at(at) if isinstance(margin, TouchAllowance) else margin)
+        )
         owner.append(np.full(hi - lo, n))
     if not moves:
         return np.ones(0, dtype=bool)
@@ -216,7 +222,9 @@ class PlanRepairer:
             return None
         # The robot may touch something where it stands: moves out of there keep less.
         allowance = start_allowance(self.grid, table, clearance, start, self.start_margin)
-        margins = [allowance if steps[n].state == here else self.margin for n in moves]
+        margins: list[float | TouchAllowance] = [
+            allowance if steps[n].state == here else self.margin for n in moves
+        ]
         free = moves_free(
             self.grid,
             table,

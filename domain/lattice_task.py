@@ -26,6 +26,7 @@ from pyperplan.task import Operator, Task
 from domain.lattice import Key, LatticeGrid, MotionTable
 from domain.lattice_cache import MotionCache
 from domain.pyperplan_adapter import CancelFlag, Fact, stop_if_due
+from domain.touching import TouchAllowance, touch_allowance
 from sim.robot import Array
 
 Clearance = Callable[[Array], Array]  # clearance (m) at world points [N, 2]
@@ -53,12 +54,13 @@ def _operator(
 
 def start_allowance(
     grid: LatticeGrid, table: MotionTable, clearance: Clearance, start: Key, start_margin: float
-) -> float:
-    """The margin motions out of ``start`` keep. The robot may start touching something (a
-    contact stopped it): they may then keep as close as the start already is, never deeper."""
+) -> TouchAllowance:
+    """The margins motions out of ``start`` keep. The robot may start touching something (a
+    contact stopped it): near where it does, they may keep as close as the start already is,
+    never deeper; elsewhere ``start_margin``."""
     i, j, k = start
-    depth = float(np.min(clearance(grid.centre(i, j) + table.body_points[k]) - table.body_needs[k]))
-    return min(start_margin, depth - 0.005)
+    points = grid.centre(i, j) + table.body_points[k]
+    return touch_allowance(points, clearance(points) - table.body_needs[k], start_margin)
 
 
 class LatticeTask(Task):  # type: ignore[misc]
@@ -146,10 +148,13 @@ class LatticeTask(Task):  # type: ignore[misc]
         i, j, k = key
         t = self.table
         centre = self.grid.centre(i, j)
-        margin = self.start_margin if key == self.start_key else self.margin
+        start = key == self.start_key
+        margin = self.start_margin.margin if start else self.margin
         if float(self.clearance(centre[None, :])[0]) >= t.open_clearance + margin:
             return np.ones(len(t.motions), dtype=bool)  # open space: nothing near enough
-        ok_points = self.clearance(centre + t.points[k]) >= t.needs[k] + margin
+        points = centre + t.points[k]
+        keep = self.start_margin.at(points) if start else margin
+        ok_points = self.clearance(points) >= t.needs[k] + keep
         out: NDArray[np.bool_] = np.logical_and.reduceat(ok_points, t.segments[k])
         return out
 

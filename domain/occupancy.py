@@ -59,6 +59,9 @@ class WorldModelSettings:
     sample_step: float = 0.5  # beam sample spacing, in cells
     contact_radius: float = 0.05  # disc marked occupied around a contact point (m)
     suspect_cleared: float = -0.8  # log-odds at or below which a suspected cell is seen free
+    # Metres round a sensed cell within which never-observed cells are suspected: the head saw
+    # part of a hidden obstacle, the rest of it lies beyond (0 turns this off).
+    sensed_continuation: float = 0.25
     max_clearance: float = 2.0  # clearance saturates here (m); exact below it
 
     def __post_init__(self) -> None:
@@ -79,9 +82,10 @@ class WorldModelSettings:
         if not 0 < self.dominant_share < 1:
             raise ValueError("world model settings: dominant_share must lie in (0, 1)")
         margins = (self.clear_sigmas, self.clear_margin, self.explained_sigmas, self.contact_radius)
-        if min(*margins, self.unambiguous_arc) < 0:
+        if min(*margins, self.unambiguous_arc, self.sensed_continuation) < 0:
             raise ValueError(
-                "world model settings: margins, radii and unambiguous_arc must be >= 0"
+                "world model settings: margins, radii, unambiguous_arc and sensed_continuation "
+                "must be >= 0"
             )
         if self.sample_step > 1:
             raise ValueError("world model settings: sample_step above one cell would skip cells")

@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from domain.lattice import capsule_samples
+from domain.touching import TouchAllowance, touch_allowance
 from sim.robot import Array
 from sim.world import footprint
 
@@ -37,16 +38,16 @@ def reshape_clear(
     margin: float,
 ) -> bool:
     """Whether the body sweeping from one shape to the other at ``pose`` keeps ``margin`` (or,
-    where the body already keeps less, never gets closer than it is)."""
+    near where the body already keeps less, never gets closer than it is)."""
     p = np.asarray(pose, dtype=float)
     a, b = np.asarray(joints_from, dtype=float), np.asarray(joints_to, dtype=float)
-    keep = margin
-    for n, s in enumerate(np.linspace(0.0, 1.0, SWEEP_SAMPLES)):
+    allowance: TouchAllowance | None = None
+    for s in np.linspace(0.0, 1.0, SWEEP_SAMPLES):
         fp = footprint(p, a + s * (b - a))
         points, needs = capsule_samples(fp.starts, fp.ends, fp.radii)
-        slack = float(np.min(clearance(points) - needs))
-        if n == 0:
-            keep = min(margin, slack - 0.005)
-        elif slack < keep:
+        slack = clearance(points) - needs
+        if allowance is None:
+            allowance = touch_allowance(points, slack, margin)
+        elif np.any(slack < allowance.at(points)):
             return False
     return True

@@ -35,7 +35,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from domain import occupancy_kernel
-from domain.clearance import DistanceMap, Window
+from domain.clearance import DistanceMap, Window, clearance_map
 from domain.grid import Flat
 from domain.interpolate import bilinear
 from domain.known import axis_samples, distance_block, known_capsules_clear
@@ -78,18 +78,17 @@ class WorldModel:
         self._suspected_count = 0  # suspected cells (none: no scan, no suspect tier)
         # cells suspected since the last reading: they may have been seen free before
         self._newly_suspected: list[Flat] = []
-        # Clearance to each dynamic layer (and to contacts with suspected cells), kept current
-        # as cells come and go (``domain.clearance``).
+        # Clearance to each dynamic layer, kept current as cells come and go
+        # (``domain.clearance``).
         cap = settings.max_clearance
         self._sensed_map = DistanceMap(self.grid, cap)
         self._contact_map = DistanceMap(self.grid, cap)
-        self._touched_map = DistanceMap(self.grid, cap)
         self._cache: dict[Any, Any] = {}
         self._cache_version = -1
         # The inflated clearance grids (private: never handed out), kept current window by
         # window: each with the windows changed since it was last brought up to date.
-        self._inflated: dict[tuple[float, float, bool], Array] = {}
-        self._stale: dict[tuple[float, float, bool], list[Window]] = {}
+        self._inflated: dict[tuple[float, float], Array] = {}
+        self._stale: dict[tuple[float, float], list[Window]] = {}
         for obstacle in known:
             self.add_known(obstacle)
         self.version = 0  # counts changes after construction
@@ -122,8 +121,6 @@ class WorldModel:
             if seen_free.size:
                 flat[seen_free] = False
                 self._suspected_count -= int(seen_free.size)
-                layers = (self._contact, self._suspected)
-                self._changed(self._touched_map.remove(layers, seen_free))
                 changed = True
         self._newly_suspected = []
         if changed:
@@ -153,7 +150,6 @@ class WorldModel:
             ii, jj = np.nonzero(new)
             cells = (ii + i0) * grid.ny + (jj + j0)
             self._changed(self._contact_map.add(self._contact, cells))
-            self._changed(self._touched_map.add(self._contact, cells))
             self.version += 1
 
     def add_suspected(self, points: Iterable[tuple[float, float]]) -> None:
@@ -169,12 +165,13 @@ class WorldModel:
             self._suspected.reshape(-1)[cells] = True
             self._suspected_count += int(cells.size)
             self._newly_suspected.append(cells)
-            self._changed(self._touched_map.add(self._suspected, cells))
             self.version += 1
 
     def suspected(self) -> NDArray[np.bool_]:
-        """The suspected-surface layer (a copy)."""
-        return self._suspected.copy()
+        """Suspected surfaces: where a touched one probably goes on, and never-observed cells
+        near what the range sensors found (a new array)."""
+        out: NDArray[np.bool_] = self._suspected | self._continuation()
+        return out
 
     def add_known(self, obstacle: Obstacle) -> None:
         """Add a known obstacle to the static layer (exact distances within ``max_clearance``)."""
@@ -254,32 +251,47 @@ class WorldModel:
         ``contact_inflation`` (default: the same); known obstacles and walls exact. The head
         sees only part of a hidden obstacle, and a bumper only the point it pressed: the rest
         lies beyond. With ``suspected``, suspected-surface cells count as contact cells.
-        One grid per inflation, brought up to date only where the layers changed since."""
+        One grid per inflation, brought up to date only where the layers changed since (with
+        suspected cells, built afresh for each version of the model)."""
         grow_contact = inflation if contact_inflation is None else contact_inflation
-        key = (inflation, grow_contact, suspected and self._suspected_any)
-        grid = self._inflated.get(key)
-        if grid is None:
-            grid = self._inflated[key] = np.empty(self.grid.shape)
-            self._inflate(key, (0, self.grid.nx, 0, self.grid.ny), grid)
+        suspect = suspected and (self._suspected_any or self._continuation_any())
+        if suspect:
+            # Suspected cells, and never-observed ones next to sensed cells, come and go with
+            # the readings: this grid is built afresh for each version of the model.
+            key = ("inflated", inflation, grow_contact)
+            grid = self._cached(key)
+            if grid is None:
+                marked = self._contact | self._suspected | self._continuation()
+                near = clearance_map(marked, self.grid.resolution, self.settings.max_clearance)
+                grid = np.empty(self.grid.shape)
+                self._inflate(
+                    near, inflation, grow_contact, (0, self.grid.nx, 0, self.grid.ny), grid
+                )
+                grid = self._store(key, grid)
         else:
-            for window in self._stale[key]:  # bring it up to date where the layers changed
-                self._inflate(key, window, grid)
-        self._stale[key] = []
+            grid = self._inflated.get((inflation, grow_contact))
+            near = self._contact_map.get(self._contact)
+            if grid is None:
+                grid = self._inflated[(inflation, grow_contact)] = np.empty(self.grid.shape)
+                self._inflate(
+                    near, inflation, grow_contact, (0, self.grid.nx, 0, self.grid.ny), grid
+                )
+            else:
+                for window in self._stale[(inflation, grow_contact)]:  # where the layers changed
+                    self._inflate(near, inflation, grow_contact, window, grid)
+            self._stale[(inflation, grow_contact)] = []
         return bilinear(grid, self.grid, np.asarray(points, dtype=float), self.bounds)
 
-    def _inflate(self, key: tuple[float, float, bool], window: Window, out: Array) -> None:
-        """``inflated_clearance_at``'s grid for ``key`` (inflation, contact inflation, whether
-        suspected cells count) over ``window`` of ``out``: sensed cells' clearance less the
-        inflation, the contacts' (with suspected cells, if they count) less theirs, at least 0,
-        at most the static layer's. Element by element, so a window of it equals the same
-        window of the whole; the smaller of two clearances less one inflation is the smaller
-        clearance less it, so one formula serves equal inflations too."""
-        inflation, grow_contact, suspect = key
+    def _inflate(
+        self, near: Array, inflation: float, grow_contact: float, window: Window, out: Array
+    ) -> None:
+        """``inflated_clearance_at``'s grid over ``window`` of ``out``: sensed cells' clearance
+        less ``inflation``, ``near`` (the contacts' clearance, with suspected cells if they
+        count) less ``grow_contact``, at least 0, at most the static layer's. Element by
+        element, so a window of it equals the same window of the whole; the smaller of two
+        clearances less one inflation is the smaller clearance less it, so one formula serves
+        equal inflations too."""
         sensed = self._sensed_map.get(self._sensed.occupied)
-        if suspect:
-            near = self._touched_map.get(self._contact, self._suspected)
-        else:
-            near = self._contact_map.get(self._contact)
         if occupancy_kernel.AVAILABLE:
             _inflate_window(self._static, sensed, near, inflation, grow_contact, window, out)
             return
@@ -390,7 +402,7 @@ class WorldModel:
             "version": self.version,
             "sensed": cells(self._sensed.occupied),
             "contact": cells(self._contact),
-            "suspected": cells(self._suspected),
+            "suspected": cells(self.suspected()),
         }
 
     # --- internals ----------------------------------------------------------------------------
@@ -418,6 +430,27 @@ class WorldModel:
             )
         out: Array = cached
         return out
+
+    def _continuation(self) -> NDArray[np.bool_]:
+        """Never-observed cells within ``sensed_continuation`` of a sensed cell (cached until
+        ``version`` changes)."""
+        cached = self._cached("continuation")
+        if cached is None:
+            reach = self.settings.sensed_continuation
+            if reach <= 0 or not np.any(self._sensed.occupied):
+                cached = np.zeros(self.grid.shape, dtype=bool)
+            else:
+                near = self._sensed_map.get(self._sensed.occupied) <= reach
+                cached = near & (self._sensed.log_odds == 0.0) & ~self._contact
+            cached = self._store("continuation", cached)
+        out: NDArray[np.bool_] = cached
+        return out
+
+    def _continuation_any(self) -> bool:
+        cached = self._cached("continuation-any")
+        if cached is None:
+            cached = self._cache["continuation-any"] = bool(np.any(self._continuation()))
+        return bool(cached)
 
     def _interpolate(self, grid: Array, pts: Array) -> Array:
         """Bilinear between cell centres (nearest beyond the outer centres)."""

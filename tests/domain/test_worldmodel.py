@@ -409,3 +409,33 @@ def test_invalid_settings_and_observations_are_rejected():
         RangeObservation((0.0, 0.0), 0.0, -0.1, 1.0, 0.5, True)
     with pytest.raises(ValueError):
         RangeObservation((0.0, math.inf), 0.0, 0.0, 1.0, 0.5, True)
+
+
+def test_never_observed_cells_next_to_a_sensed_surface_are_suspected():
+    def seen_wall(continuation: float) -> WorldModel:
+        model = WorldModel(
+            Bounds(-2.0, 2.0, -1.0, 1.0),
+            settings=WorldModelSettings(sensed_continuation=continuation),
+        )
+        for _ in range(3):  # a hidden wall along y = 0.5, seen from below between x = -1.5 and -0.8
+            model.integrate([ray((x, 0.0), math.pi / 2, 0.5) for x in np.arange(-1.5, -0.79, 0.05)])
+            model.integrate([ray((-1.5, 0.0), 0.0, 1.0, hit=False)])  # free along y = 0
+        return model
+
+    model = seen_wall(0.25)
+    suspected = model.suspected()
+    assert model.sensed_occupied()[model.cell_of(-1.0, 0.5)]
+    # Where the wall probably goes on (never seen) is suspected, within 0.25 m of what was seen ...
+    assert suspected[model.cell_of(-0.65, 0.5)] and suspected[model.cell_of(-1.2, 0.65)]
+    assert not suspected[model.cell_of(-0.4, 0.5)] and not suspected[model.cell_of(1.5, 0.5)]
+    # ... never where a beam saw free space, nor on the sensed cells themselves.
+    assert not suspected[model.cell_of(-1.0, 0.3)] and not suspected[model.cell_of(-1.0, 0.5)]
+    assert not suspected[model.cell_of(-0.9, 0.0)]
+    # Plans that avoid suspected surfaces keep clear of it; the plain clearance does not.
+    beyond = np.array([[-0.6, 0.35]])
+    assert model.inflated_clearance_at(beyond, 0.05, 0.1, suspected=True)[0] < 0.05
+    assert model.inflated_clearance_at(beyond, 0.05, 0.1)[0] > 0.1
+    assert "suspected" in model.to_dict() and len(model.to_dict()["suspected"]) == suspected.sum()
+    assert not seen_wall(0.0).suspected().any()
+    with pytest.raises(ValueError, match="sensed_continuation"):
+        WorldModelSettings(sensed_continuation=-0.1)
