@@ -1,13 +1,17 @@
 """Clearance to one layer's occupied cells, kept current without re-running the whole transform.
 
 The clearance of a cell to a layer is the distance between its centre and the nearest occupied
-cell's, minus half a cell, clipped to ``[0, cap]`` (a Euclidean distance transform, scipy's
-``ndimage``). A tick of sensing adds a few occupied cells; their effect reaches no further than
-``cap`` plus half a cell, so ``DistanceMap.add`` transforms only a window around them and takes
-the minimum with what it had. That equals a full transform value for value: the transform's
-distances are exact, the clipped map is a non-decreasing function of them, and the distance to a
-union of cells is the minimum of the distances to each part. Cells that stop being occupied need
-the full transform again (``DistanceMap.reset``); they are rare (noise decaying).
+cell's, minus half a cell, clipped to ``[0, cap]`` (an exact Euclidean distance transform:
+compiled, or scipy's ``ndimage`` without numba, the same numbers). A tick of sensing adds or removes a few occupied cells; their effect reaches no
+further than ``cap`` plus half a cell, so ``DistanceMap`` updates only a window around them:
+
+- **added** cells: the transform of the added cells alone over the window, and the minimum with
+  what the map had. That equals a full transform value for value: the transform's distances are
+  exact, the clipped map is a non-decreasing function of them, and the distance to a union of
+  cells is the minimum of the distances to each part.
+- **removed** cells: the cells within reach of them get the transform of the layer over that
+  window grown by the reach once more (every occupied cell that can be nearest to one of them
+  lies inside it; one further away is beyond ``cap`` either way, where the map saturates).
 """
 
 from __future__ import annotations
@@ -18,21 +22,113 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from domain import occupancy_kernel
 from domain.grid import Flat, Grid
 from sim.robot import Array
 
+Window = tuple[int, int, int, int]  # cells i0:i1, j0:j1
+
 
 def clearance_map(occupied: NDArray[np.bool_], resolution: float, cap: float) -> Array:
-    """Clearance ``[nx, ny]`` of every cell centre to the occupied cells (``cap`` if none)."""
+    """Clearance ``[nx, ny]`` of every cell centre to the occupied cells (``cap`` if none).
+
+    Compiled (``_compiled_map``) when numba is there, else scipy's transform: the same
+    numbers either way."""
     if not np.any(occupied):
         return np.full(occupied.shape, cap)
+    if occupancy_kernel.AVAILABLE:
+        out = np.empty(occupied.shape)
+        _compiled_map(np.ascontiguousarray(occupied), resolution, cap, out)
+        return out
     dist = ndimage.distance_transform_edt(~occupied) * resolution - 0.5 * resolution
-    out: Array = np.clip(dist, 0.0, cap)
-    return out
+    clipped: Array = np.clip(dist, 0.0, cap)
+    return clipped
+
+
+@occupancy_kernel._jit
+def _compiled_map(  # pragma: no cover - compiled
+    occupied: NDArray[np.bool_], resolution: float, cap: float, out: Array
+) -> None:
+    """``clearance_map`` into ``out``: the exact squared distance (in cells) of every cell to
+    the nearest occupied one by Meijster, Roerdink and Hesselink's two passes (integers
+    throughout), then as scipy's transform turns it into metres: the square root of the
+    squared distance as a float, times ``resolution``, less half a cell, clipped."""
+    nx, ny = occupied.shape
+    far = nx + ny  # further than any cell: "nothing in this column"
+    g = np.empty((nx, ny), dtype=np.int64)
+    # down each column (row by row, for memory order): the distance to the nearest occupied
+    # cell of the column above, then below
+    for j in range(ny):
+        g[0, j] = 0 if occupied[0, j] else far
+    for i in range(1, nx):
+        for j in range(ny):
+            g[i, j] = 0 if occupied[i, j] else min(g[i - 1, j] + 1, far)
+    for i in range(nx - 2, -1, -1):
+        for j in range(ny):
+            if g[i + 1, j] < g[i, j]:
+                g[i, j] = g[i + 1, j] + 1
+    s = np.empty(ny, dtype=np.int64)
+    t = np.empty(ny, dtype=np.int64)
+    g2 = np.empty(ny, dtype=np.int64)
+    half = 0.5 * resolution
+    for i in range(nx):  # along each row: the lower envelope of the columns' parabolas
+        for u in range(ny):
+            g2[u] = g[i, u] * g[i, u]
+        q = 0
+        s[0] = 0
+        t[0] = 0
+        for u in range(1, ny):
+            while q >= 0:
+                a, x = s[q], t[q]
+                if (x - a) * (x - a) + g2[a] <= (x - u) * (x - u) + g2[u]:
+                    break
+                q -= 1
+            if q < 0:
+                q = 0
+                s[0] = u
+            else:
+                a = s[q]
+                w = 1 + (u * u - a * a + g2[u] - g2[a]) // (2 * (u - a))
+                if w < ny:
+                    q += 1
+                    s[q] = u
+                    t[q] = w
+        for u in range(ny - 1, -1, -1):
+            a = s[q]
+            d2 = (u - a) * (u - a) + g2[a]
+            dist = math.sqrt(float(d2)) * resolution - half
+            out[i, u] = min(max(dist, 0.0), cap)
+            if u == t[q]:
+                q -= 1
+
+
+FEW_CELLS = 8  # added cells measured one by one (beyond: a transform of their window)
+
+
+@occupancy_kernel._jit
+def _add_few(  # pragma: no cover - compiled
+    view: Array, ci: Flat, cj: Flat, resolution: float, cap: float
+) -> None:
+    """``view`` becomes its minimum with the clearance to the cells (``ci``, ``cj``) of it:
+    each cell's squared distance (in cells) to the nearest of them, turned into metres as
+    ``_compiled_map`` turns it, so the same numbers as transforming them."""
+    half = 0.5 * resolution
+    nx, ny = view.shape
+    for i in range(nx):
+        for j in range(ny):
+            d2 = (i - ci[0]) * (i - ci[0]) + (j - cj[0]) * (j - cj[0])
+            for k in range(1, ci.size):
+                d2 = min(d2, (i - ci[k]) * (i - ci[k]) + (j - cj[k]) * (j - cj[k]))
+            dist = min(max(math.sqrt(float(d2)) * resolution - half, 0.0), cap)
+            view[i, j] = min(view[i, j], dist)
 
 
 class DistanceMap:
-    """The clearance map of one occupancy layer, updated as cells are added or removed."""
+    """The clearance map of one occupancy layer, updated as cells are added or removed.
+
+    The map is this object's own and is updated in place: ``get`` hands it out to be read
+    there and then (the world model derives its own arrays from it), not kept.
+    """
 
     def __init__(self, grid: Grid, cap: float) -> None:
         self.grid = grid
@@ -41,27 +137,62 @@ class DistanceMap:
         # cells within this many of an added cell may get closer to something
         self._reach = math.ceil((cap + 0.5 * grid.resolution) / grid.resolution) + 1
 
+    @property
+    def ready(self) -> bool:
+        """Whether the map is there (``get`` will not transform the whole layer)."""
+        return self._map is not None
+
     def reset(self) -> None:
-        """Forget the map: the layer changed in a way a window cannot follow (cells removed)."""
+        """Forget the map: the next ``get`` transforms the whole layer."""
         self._map = None
 
-    def add(self, occupied: NDArray[np.bool_], cells: Flat) -> None:
-        """Cells ``cells`` (flat indices) became occupied in ``occupied`` (the layer, after)."""
-        if self._map is None or cells.size == 0:
-            return
+    def window(self, cells: Flat, grow: int | None = None) -> Window:
+        """The cells within ``grow`` (default: the reach) of flat ``cells``' bounding box."""
+        r = self._reach if grow is None else grow
         i, j = np.divmod(cells, self.grid.ny)
-        r = self._reach
         i0, i1 = max(int(i.min()) - r, 0), min(int(i.max()) + r + 1, self.grid.nx)
         j0, j1 = max(int(j.min()) - r, 0), min(int(j.max()) + r + 1, self.grid.ny)
-        added = np.zeros((i1 - i0, j1 - j0), dtype=bool)
-        added[i - i0, j - j0] = True
-        near = clearance_map(added, self.grid.resolution, self.cap)
-        updated = self._map.copy()  # the old map may be shared with callers: never edit it
-        np.minimum(updated[i0:i1, j0:j1], near, out=updated[i0:i1, j0:j1])
-        self._map = updated
+        return i0, i1, j0, j1
 
-    def get(self, occupied: NDArray[np.bool_]) -> Array:
-        """The clearance map of ``occupied`` (the layer as it is now)."""
+    def add(self, occupied: NDArray[np.bool_], cells: Flat) -> Window | None:
+        """Cells ``cells`` (flat indices) became occupied in ``occupied`` (the layer, after).
+        Returns the window of the map that may have changed (``None``: none)."""
+        if cells.size == 0:
+            return None
+        i0, i1, j0, j1 = self.window(cells)
+        if self._map is not None:
+            i, j = np.divmod(cells, self.grid.ny)
+            view = self._map[i0:i1, j0:j1]
+            if occupancy_kernel.AVAILABLE and cells.size <= FEW_CELLS:
+                # a few cells: their distances directly, as the transform would find them
+                _add_few(view, i - i0, j - j0, self.grid.resolution, self.cap)
+            else:
+                added = np.zeros((i1 - i0, j1 - j0), dtype=bool)
+                added[i - i0, j - j0] = True
+                near = clearance_map(added, self.grid.resolution, self.cap)
+                np.minimum(view, near, out=view)
+        return i0, i1, j0, j1
+
+    def remove(self, layers: tuple[NDArray[np.bool_], ...], cells: Flat) -> Window | None:
+        """Cells ``cells`` stopped being occupied; the layer (after) is the union of ``layers``.
+        Returns the window of the map that may have changed (``None``: none)."""
+        if cells.size == 0:
+            return None
+        i0, i1, j0, j1 = self.window(cells)
+        if self._map is not None:
+            o0, o1, p0, p1 = self.window(cells, 2 * self._reach)
+            occupied = layers[0][o0:o1, p0:p1].copy()
+            for layer in layers[1:]:
+                occupied |= layer[o0:o1, p0:p1]
+            near = clearance_map(occupied, self.grid.resolution, self.cap)
+            self._map[i0:i1, j0:j1] = near[i0 - o0 : i1 - o0, j0 - p0 : j1 - p0]
+        return i0, i1, j0, j1
+
+    def get(self, *layers: NDArray[np.bool_]) -> Array:
+        """The clearance map of the union of ``layers`` (the layer as it is now)."""
         if self._map is None:
+            occupied = layers[0]
+            for layer in layers[1:]:
+                occupied = occupied | layer
             self._map = clearance_map(occupied, self.grid.resolution, self.cap)
         return self._map

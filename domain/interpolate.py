@@ -24,12 +24,14 @@ def bilinear(values: Array, grid: Grid, pts: Array, walls: Bounds | None = None)
     ``[..., 2]``, nearest beyond the outer centres; with ``walls``, at most each point's
     distance to them (``np.minimum`` with ``walls.wall_clearance``, negative outside)."""
     if occupancy_kernel.AVAILABLE and values.flags.c_contiguous:
-        flat_pts = np.ascontiguousarray(pts, dtype=float).reshape(-1, 2)
-        out = np.empty(flat_pts.shape[0])
+        points = np.ascontiguousarray(pts, dtype=float)
+        out = np.empty(points.shape[:-1])
         box = (walls.xmin, walls.xmax, walls.ymin, walls.ymax) if walls is not None else _NO_WALLS
         origin = grid.origin
-        _compiled(values, flat_pts, origin[0], origin[1], grid.resolution, *box, out)
-        return out.reshape(np.shape(pts)[:-1])
+        _compiled(
+            values, points.reshape(-1, 2), origin[0], origin[1], grid.resolution, *box, out.ravel()
+        )
+        return out
     inner = _numpy(values, grid, pts)
     if walls is None:
         return inner

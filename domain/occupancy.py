@@ -24,13 +24,14 @@ sensor layout (``sim.sensors``), a tracked pose and the readings by sensor name.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, fields
 
 import numpy as np
+from numpy.typing import NDArray
 
 from domain import occupancy_kernel as kernel
-from domain.beams import arc_cells, likelihoods, spread, swept_cells
+from domain.beams import arc_cells, likelihoods, swept_cells
 from domain.grid import Flat, Grid, unique_cells, unique_counts, unique_inverse
 from domain.observation import RangeObservation, range_observations
 from sim.robot import Array
@@ -116,10 +117,13 @@ class SensedLayer:
         self.log_odds = np.zeros(grid.shape)
         self.occupied = np.zeros(grid.shape, dtype=bool)
         self.compiled = kernel.AVAILABLE if compiled is None else compiled and kernel.AVAILABLE
+        # the cells the last update lowered (cleared), flat: the only ones whose log-odds fell
+        self.lowered: Flat = np.zeros(0, dtype=np.intp)
         self._scratch: tuple[Array, ...] | None = None
         # the grid as the kernels take it: (origin x, origin y, resolution), (nx, ny)
         self._geometry = np.array([grid.origin[0], grid.origin[1], grid.resolution])
         self._shape = np.array(grid.shape, dtype=np.int64)
+        self._likelihoods = _likelihood_table(17)  # grown when a noisier sensor reads
 
     def integrate(
         self, observations: Iterable[RangeObservation], known_clearance: Array
@@ -128,61 +132,51 @@ class SensedLayer:
 
         Returns the flat indices of cells that became occupied and of cells that stopped being so.
         """
-        valid = [obs for obs in observations if not math.isnan(obs.distance)]  # NaN: dropout
         if self.compiled:
-            return self._integrate_compiled(valid, known_clearance)
+            # Only the readings' numbers, one row each, to the compiled bookkeeping.
+            rows = [
+                (*o.origin, o.angle, o.fov, o.max_range, o.distance, o.hit, o.noise_std)
+                for o in observations
+                if not math.isnan(o.distance)  # NaN: dropout
+            ]
+            return self._integrate_compiled(rows, known_clearance)
+        valid = [obs for obs in observations if not math.isnan(obs.distance)]  # NaN: dropout
         return self._integrate_numpy(valid, known_clearance)
 
     def _integrate_compiled(
-        self, valid: list[RangeObservation], known_clearance: Array
+        self, rows: Sequence[tuple[float | bool, ...]], known_clearance: Array
     ) -> tuple[Flat, Flat]:
-        """``_integrate_numpy`` in two compiled loops (the same numbers, a tenth of the time):
-        here only the per-reading bookkeeping and numpy's cos, sin and exp."""
+        """``_integrate_numpy`` in compiled loops (the same numbers, a tenth of the time): the
+        readings' layout, the clearing and the marking compiled; numpy's cos, sin and exp
+        between them (numpy's SIMD versions may round differently from LLVM's)."""
         s, res = self.settings, self.grid.resolution
         step = s.sample_step * res
-        if not valid:
+        if not rows:
             empty = np.zeros(0, dtype=np.intp)
+            self.lowered = empty
             return empty, empty
         if self._scratch is None:
             n = self.grid.nx * self.grid.ny
             self._scratch = (np.full(n, -1, np.int64), np.zeros(n), np.zeros(n), np.zeros(n))
         mark, acc, sure_acc, vague_acc = self._scratch
-        beams: list[tuple[float, float]] = []
-        swept: list[tuple[int, int, int]] = []
-        hits: list[tuple[int, int, int, int]] = []
-        hit_range: list[tuple[float, float, int]] = []
-        angles: list[float] = []
-        arc_angles: list[float] = []
-        z_parts: list[Array] = []
-        w_parts: list[Array] = []
-        tolerance: list[float] = []
-        narrow: list[bool] = []
-        z_count = 0
-        for k, obs in enumerate(valid):
-            reach = min(obs.distance, obs.max_range)
-            beams.append(obs.origin)
-            until = reach - (s.clear_sigmas * obs.noise_std + s.clear_margin)
-            if until > 0:  # as beams.swept_cells and beams._fan sample it
-                n = 1 if obs.fov == 0 else math.ceil(obs.fov * until / step) + 1
-                swept.append((len(angles), n, math.ceil(until / step)))
-                angles += [obs.angle + o for o in spread(obs.fov, n)] if n > 1 else [obs.angle]
-            else:
-                swept.append((0, 0, 0))
-            if obs.hit:  # as beams.arc_cells samples it
-                half = step / 2
-                n_z = 2 * math.ceil(2.0 * obs.noise_std / half) + 1
-                n = 1 if obs.fov == 0 else math.ceil(obs.fov * reach / half) + 1
-                hits.append((k, len(arc_angles), n, n_z))
-                hit_range.append((reach, obs.noise_std, z_count))
-                arc_angles += [obs.angle + o for o in spread(obs.fov, n)] if n > 1 else [obs.angle]
-                z, w = likelihoods(n_z)
-                z_parts.append(z)
-                w_parts.append(w)
-                z_count += n_z
-                tolerance.append(s.explained_sigmas * obs.noise_std + res * math.sqrt(0.5))
-                narrow.append(obs.fov * min(obs.distance, obs.max_range) <= s.unambiguous_arc * res)
-        sweep_dirs = np.array(angles)
-        arc_dirs = np.array(arc_angles)
+        table = np.array(rows, dtype=float)
+        while True:
+            laid = kernel.layout(
+                table,
+                step,
+                s.clear_sigmas,
+                s.clear_margin,
+                s.explained_sigmas,
+                res,
+                s.unambiguous_arc,
+                *self._likelihoods,
+            )
+            if laid[-1] < self._likelihoods[2].size - 1:
+                break
+            self._likelihoods = _likelihood_table(laid[-1])  # a noisier sensor than so far
+        sweep_dirs, arc_dirs, beams, swept, hits, hit_range, z_all, w_all, tolerance, narrow, _ = (
+            laid
+        )
         flat = self.log_odds.reshape(-1)
         arc, lik, bounds, cleared = kernel.sweep_and_clear(
             flat,
@@ -192,32 +186,31 @@ class SensedLayer:
             np.sin(sweep_dirs),
             np.cos(arc_dirs),
             np.sin(arc_dirs),
-            np.array(beams, dtype=float),
-            np.array(swept, dtype=np.int64).reshape(-1, 3),
+            beams,
+            swept,
             step,
-            np.array(hits, dtype=np.int64).reshape(-1, 4),
-            np.array(hit_range, dtype=float).reshape(-1, 3),
-            np.concatenate([np.zeros(0), *z_parts]),
-            np.concatenate([np.zeros(0), *w_parts]),
+            hits,
+            hit_range,
+            z_all,
+            w_all,
             s.log_odds_free,
             s.log_odds_min,
             mark,
             acc,
         )
-        # The occupancy probability of each arc cell after clearing (numpy's exp, as the numpy
-        # path computes it); cells within the noise of known geometry are explained by it.
-        per_hit = np.diff(bounds)
-        explained = known_clearance.reshape(-1)[arc] <= np.repeat(np.array(tolerance), per_hit)
-        p = np.where(explained, 1.0, 1.0 / (1.0 + np.exp(-flat[arc])))
-        became, ceased = kernel.share_and_mark(
+        self.lowered = cleared
+        # The occupancy odds of each arc cell after clearing (numpy's exp, as the numpy path
+        # computes it); cells within the noise of known geometry are explained by it.
+        became, ceased = kernel.explain_share_and_mark(
             flat,
             self.occupied.reshape(-1),
+            known_clearance.reshape(-1),
             arc,
             lik,
             bounds,
-            p,
-            explained,
-            np.array(narrow, dtype=bool),
+            tolerance,
+            np.exp(-flat[arc]),
+            narrow,
             cleared,
             s.log_odds_hit,
             s.dominant_share,
@@ -256,6 +249,7 @@ class SensedLayer:
         updates = _Updates([cell], [], [], [], [])
         flat = self.log_odds.reshape(-1)
         touched = [self._apply_free(flat, updates.free)]
+        self.lowered = touched[0]
         # Hit shares use the cleared state: evidence goes to arc cells the beams left standing.
         for obs, cells, likelihood in hits:
             self._share_hit(obs, cells, likelihood, known_clearance.reshape(-1), updates)
@@ -315,6 +309,16 @@ class SensedLayer:
         after = self.log_odds.reshape(-1)[touched] > self.settings.occupied_threshold
         occupied[touched] = after
         return touched[after & ~before], touched[before & ~after]
+
+
+def _likelihood_table(largest: int) -> tuple[Array, Array, NDArray[np.int64]]:
+    """``beams.likelihoods(n)`` for n = 1..``largest`` one after the other (z values, weights)
+    and where each n starts (``[largest + 2]``), for the compiled layout."""
+    parts = [likelihoods(n) for n in range(1, largest + 1)]
+    first = np.cumsum([0, 0, *(z.size for z, _ in parts)]).astype(np.int64)
+    z = np.concatenate([z for z, _ in parts])
+    w = np.concatenate([w for _, w in parts])
+    return z, w, first
 
 
 def _summed(cells: list[Flat], gains: list[Array]) -> tuple[Flat, Array]:

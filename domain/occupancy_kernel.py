@@ -15,6 +15,7 @@ its numpy path.
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -108,7 +109,7 @@ def sweep_and_clear(  # pragma: no cover - compiled
     ``log_odds_free`` per beam, clamped at ``log_odds_min``.
 
     Returns the arc cells of all hits concatenated, their likelihoods, each hit's first arc
-    cell (``[H + 1]`` bounds), and the cleared cells (sorted, distinct).
+    cell (``[H + 1]`` bounds), and the cleared cells (distinct, in the order found).
     """
     ox, oy, res = grid[0], grid[1], grid[2]
     nx, ny = shape[0], shape[1]
@@ -178,7 +179,7 @@ def sweep_and_clear(  # pragma: no cover - compiled
                     cleared[n_cleared] = c
                     n_cleared += 1
                 acc[c] += 1.0  # a count, exact in floating point
-    cells = np.sort(cleared[:n_cleared])
+    cells = cleared[:n_cleared]  # each cell once, in the order found (updates are per cell)
     for m in range(n_cleared):
         c = cells[m]
         counts[m] = int(acc[c])
@@ -260,18 +261,27 @@ def share_and_mark(  # pragma: no cover - compiled
         now = log_odds[c]
         log_odds[c] = max(now, min(now + vague_acc[c], ambiguous_ceiling))
         vague_acc[c] = 0.0
-    touched = np.concatenate((cleared, sure_cells[:n_sure], vague_cells[:n_vague]))
+    # Threshold every cell touched (cleared, sure or vague) once: each is marked (3) when its
+    # turn comes; only the few that changed are sorted, as np.unique would have ordered them.
     for m in range(n_sure):
         mark[sure_cells[m]] = -1
     for m in range(n_vague):
         mark[vague_cells[m]] = -1
-    touched = np.unique(touched)
-    became = np.empty(touched.size, dtype=np.int64)
-    ceased = np.empty(touched.size, dtype=np.int64)
+    total = cleared.size + n_sure + n_vague
+    became = np.empty(total, dtype=np.int64)
+    ceased = np.empty(total, dtype=np.int64)
     n_became = 0
     n_ceased = 0
-    for m in range(touched.size):
-        c = touched[m]
+    for m in range(total):
+        if m < cleared.size:
+            c = cleared[m]
+        elif m < cleared.size + n_sure:
+            c = sure_cells[m - cleared.size]
+        else:
+            c = vague_cells[m - cleared.size - n_sure]
+        if mark[c] == 3:
+            continue
+        mark[c] = 3
         before = occupied[c]
         after = log_odds[c] > threshold
         occupied[c] = after
@@ -281,4 +291,156 @@ def share_and_mark(  # pragma: no cover - compiled
         elif before and not after:
             ceased[n_ceased] = c
             n_ceased += 1
-    return became[:n_became], ceased[:n_ceased]
+    for m in range(cleared.size):  # forget the marks
+        mark[cleared[m]] = -1
+    for m in range(n_sure):
+        mark[sure_cells[m]] = -1
+    for m in range(n_vague):
+        mark[vague_cells[m]] = -1
+    return np.sort(became[:n_became]), np.sort(ceased[:n_ceased])
+
+
+@_jit
+def _spread(fov: float, n: int, i: int) -> float:  # pragma: no cover - compiled
+    """``np.linspace(-fov / 2, fov / 2, n)[i]`` as numpy computes it (``i * step + start``,
+    the last one ``stop`` itself; ``beams.spread``)."""
+    start, stop = -fov / 2, fov / 2
+    if i == n - 1:
+        return stop
+    delta = stop - start
+    step = delta / (n - 1)
+    if step == 0:
+        return float(i) / (n - 1) * delta + start
+    return float(i) * step + start
+
+
+@_jit
+def layout(  # pragma: no cover - compiled
+    rows: Array,  # [K, 8]: origin x, y, angle, fov, max range, distance, hit (0/1), noise σ
+    step: float,  # beam sample spacing (m)
+    clear_sigmas: float,
+    clear_margin: float,
+    explained_sigmas: float,
+    resolution: float,
+    unambiguous_arc: float,
+    table_z: Array,  # likelihoods(n) for n = 1..: z values ...
+    table_w: Array,  # ... and weights, one after the other
+    table_first: Ints,  # where likelihoods(n) starts in them, [N + 2]
+) -> tuple[Array, Array, Array, Ints, Ints, Array, Array, Array, Array, NDArray[np.bool_], int]:
+    """The per-reading bookkeeping of ``SensedLayer._integrate_compiled``: every valid
+    reading's sweep directions (angles) and range samples, every hit's arc directions, range
+    likelihoods, explained tolerance and whether its arc is narrow, with the same arithmetic as
+    the Python loop it replaces. The last value is the largest likelihood sample count needed:
+    when it exceeds the table, nothing else is filled and the caller extends the table."""
+    k_all = rows.shape[0]
+    half = step / 2
+    need = 0
+    n_sweep = 0
+    n_arc = 0
+    n_hits = 0
+    n_z_total = 0
+    for k in range(k_all):
+        fov, reach = rows[k, 3], min(rows[k, 5], rows[k, 4])
+        until = reach - (clear_sigmas * rows[k, 7] + clear_margin)
+        if until > 0:
+            n_sweep += 1 if fov == 0 else math.ceil(fov * until / step) + 1
+        if rows[k, 6] != 0:
+            n_z = 2 * math.ceil(2.0 * rows[k, 7] / half) + 1
+            need = max(need, n_z)
+            n_arc += 1 if fov == 0 else math.ceil(fov * reach / half) + 1
+            n_hits += 1
+            n_z_total += n_z
+    sweep = np.empty(n_sweep)
+    arc = np.empty(n_arc)
+    beams = np.empty((k_all, 2))
+    swept = np.zeros((k_all, 3), dtype=np.int64)
+    hits = np.empty((n_hits, 4), dtype=np.int64)
+    hit_range = np.empty((n_hits, 3))
+    z_all = np.empty(n_z_total)
+    w_all = np.empty(n_z_total)
+    tolerance = np.empty(n_hits)
+    narrow = np.empty(n_hits, dtype=np.bool_)
+    if need >= table_first.size - 1:
+        return sweep, arc, beams, swept, hits, hit_range, z_all, w_all, tolerance, narrow, need
+    n_sweep = n_arc = h = z_count = 0
+    for k in range(k_all):
+        angle, fov, noise = rows[k, 2], rows[k, 3], rows[k, 7]
+        reach = min(rows[k, 5], rows[k, 4])
+        beams[k, 0], beams[k, 1] = rows[k, 0], rows[k, 1]
+        until = reach - (clear_sigmas * noise + clear_margin)
+        if until > 0:  # as beams.swept_cells and beams._fan sample it
+            n = 1 if fov == 0 else math.ceil(fov * until / step) + 1
+            swept[k, 0], swept[k, 1] = n_sweep, n
+            swept[k, 2] = math.ceil(until / step)
+            for i in range(n):
+                sweep[n_sweep + i] = angle + _spread(fov, n, i) if n > 1 else angle
+            n_sweep += n
+        if rows[k, 6] != 0:  # as beams.arc_cells samples it
+            n_z = 2 * math.ceil(2.0 * noise / half) + 1
+            n = 1 if fov == 0 else math.ceil(fov * reach / half) + 1
+            hits[h, 0], hits[h, 1], hits[h, 2], hits[h, 3] = k, n_arc, n, n_z
+            hit_range[h, 0], hit_range[h, 1], hit_range[h, 2] = reach, noise, z_count
+            for i in range(n):
+                arc[n_arc + i] = angle + _spread(fov, n, i) if n > 1 else angle
+            n_arc += n
+            first = table_first[n_z]
+            for i in range(n_z):
+                z_all[z_count + i] = table_z[first + i]
+                w_all[z_count + i] = table_w[first + i]
+            z_count += n_z
+            tolerance[h] = explained_sigmas * noise + resolution * math.sqrt(0.5)
+            narrow[h] = fov * reach <= unambiguous_arc * resolution
+            h += 1
+    return sweep, arc, beams, swept, hits, hit_range, z_all, w_all, tolerance, narrow, need
+
+
+@_jit
+def explain_share_and_mark(  # pragma: no cover - compiled
+    log_odds: Array,
+    occupied: NDArray[np.bool_],
+    known_clearance: Array,  # per cell: the static layer's clearance
+    arc: Ints,
+    lik: Array,
+    bounds: Ints,
+    tolerance: Array,  # per hit: known geometry within this explains an arc cell
+    odds: Array,  # per arc cell: np.exp(-log_odds) after clearing (numpy's exp)
+    narrow: NDArray[np.bool_],
+    cleared: Ints,
+    log_odds_hit: float,
+    dominant_share: float,
+    log_odds_max: float,
+    ambiguous_ceiling: float,
+    threshold: float,
+    sure_acc: Array,
+    vague_acc: Array,
+    mark: Ints,
+) -> tuple[Ints, Ints]:
+    """``share_and_mark`` after finding which arc cells known geometry explains and the
+    others' occupancy probability ``1 / (1 + odds)``, as the numpy path computes them."""
+    n = arc.size
+    p = np.empty(n)
+    explained = np.empty(n, dtype=np.bool_)
+    for h in range(bounds.size - 1):
+        for m in range(bounds[h], bounds[h + 1]):
+            explained[m] = known_clearance[arc[m]] <= tolerance[h]
+            p[m] = 1.0 if explained[m] else 1.0 / (1.0 + odds[m])
+    out: tuple[Ints, Ints] = share_and_mark(
+        log_odds,
+        occupied,
+        arc,
+        lik,
+        bounds,
+        p,
+        explained,
+        narrow,
+        cleared,
+        log_odds_hit,
+        dominant_share,
+        log_odds_max,
+        ambiguous_ceiling,
+        threshold,
+        sure_acc,
+        vague_acc,
+        mark,
+    )
+    return out

@@ -34,7 +34,9 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from domain.clearance import DistanceMap, clearance_map
+from domain import occupancy_kernel
+from domain.clearance import DistanceMap, Window, clearance_map
+from domain.grid import Flat
 from domain.interpolate import bilinear
 from domain.known import axis_samples, distance_block, known_capsules_clear
 from domain.occupancy import (
@@ -49,6 +51,8 @@ from sim.robot import Array
 from sim.world import Bounds
 
 __all__ = ["RangeObservation", "WorldModel", "WorldModelSettings", "range_observations"]
+
+MAX_STALE_WINDOWS = 64  # windows an inflated grid is brought up to date by, before a rebuild
 
 
 class WorldModel:
@@ -71,33 +75,54 @@ class WorldModel:
         # Where a touched surface probably goes on (a bumper feels a short piece of a wall);
         # avoided while a way round exists, cleared by beams that see the cells free.
         self._suspected = np.zeros(self.grid.shape, dtype=bool)
-        self._suspected_any = False  # whether any cell is suspected (skips a scan per reading)
-        # Clearance to each dynamic layer, kept current as cells come (``domain.clearance``).
-        self._sensed_map = DistanceMap(self.grid, settings.max_clearance)
-        self._contact_map = DistanceMap(self.grid, settings.max_clearance)
+        self._suspected_count = 0  # suspected cells (none: no scan, no suspect tier)
+        # cells suspected since the last reading: they may have been seen free before
+        self._newly_suspected: list[Flat] = []
+        # Clearance to each dynamic layer, kept current as cells come and go
+        # (``domain.clearance``).
+        cap = settings.max_clearance
+        self._sensed_map = DistanceMap(self.grid, cap)
+        self._contact_map = DistanceMap(self.grid, cap)
         self._cache: dict[Any, Any] = {}
         self._cache_version = -1
+        # The inflated clearance grids (private: never handed out), kept current window by
+        # window: each with the windows changed since it was last brought up to date.
+        self._inflated: dict[tuple[float, float], Array] = {}
+        self._stale: dict[tuple[float, float], list[Window]] = {}
         for obstacle in known:
             self.add_known(obstacle)
         self.version = 0  # counts changes after construction
 
     # --- layers -------------------------------------------------------------------------------
 
+    @property
+    def _suspected_any(self) -> bool:
+        return self._suspected_count > 0
+
     def integrate(self, observations: Iterable[RangeObservation]) -> list[tuple[float, float]]:
         """Update the sensed layer with range readings; return the world centres of the cells
         that became occupied (NaN readings are dropouts and change nothing)."""
-        became, ceased = self._sensed.integrate(observations, self._static)
-        if ceased.size:
-            self._sensed_map.reset()
-        else:
-            self._sensed_map.add(self._sensed.occupied, became)
+        sensed = self._sensed
+        became, ceased = sensed.integrate(observations, self._static)
+        # cells that ceased first (their window transformed afresh, the new cells included),
+        # then the new cells' own window
+        self._changed(self._sensed_map.remove((sensed.occupied,), ceased))
+        self._changed(self._sensed_map.add(sensed.occupied, became))
         changed = bool(became.size or ceased.size)
-        if self._suspected_any and np.any(self._suspected):
-            seen_free = self._suspected & (self._sensed.log_odds <= self.settings.suspect_cleared)
-            if np.any(seen_free):
-                self._suspected &= ~seen_free
-                self._suspected_any = bool(np.any(self._suspected))
+        if self._suspected_count:
+            # A suspected cell is seen free once its log-odds fall to the threshold: only
+            # cells this reading lowered, or suspected since the last one, can have got there.
+            cells = np.concatenate([sensed.lowered, *self._newly_suspected])
+            flat = self._suspected.reshape(-1)
+            cells = cells[flat[cells]]
+            seen_free = np.unique(
+                cells[sensed.log_odds.reshape(-1)[cells] <= self.settings.suspect_cleared]
+            )
+            if seen_free.size:
+                flat[seen_free] = False
+                self._suspected_count -= int(seen_free.size)
                 changed = True
+        self._newly_suspected = []
         if changed:
             self.version += 1
         if not became.size:
@@ -123,7 +148,8 @@ class WorldModel:
         if np.any(new):
             window |= disc
             ii, jj = np.nonzero(new)
-            self._contact_map.add(self._contact, (ii + i0) * grid.ny + (jj + j0))
+            cells = (ii + i0) * grid.ny + (jj + j0)
+            self._changed(self._contact_map.add(self._contact, cells))
             self.version += 1
 
     def add_suspected(self, points: Iterable[tuple[float, float]]) -> None:
@@ -133,12 +159,12 @@ class WorldModel:
         if pts.size == 0:
             return
         flat, inside = self.grid.locate(pts.reshape(-1, 2))
-        cells = np.zeros(self.grid.shape, dtype=bool).ravel()
-        cells[flat[inside]] = True
-        cells = cells.reshape(self.grid.shape) & ~self._contact
-        if np.any(cells & ~self._suspected):
-            self._suspected |= cells
-            self._suspected_any = True
+        cells = np.unique(flat[inside])
+        cells = cells[~self._contact.reshape(-1)[cells] & ~self._suspected.reshape(-1)[cells]]
+        if cells.size:
+            self._suspected.reshape(-1)[cells] = True
+            self._suspected_count += int(cells.size)
+            self._newly_suspected.append(cells)
             self.version += 1
 
     def suspected(self) -> NDArray[np.bool_]:
@@ -158,6 +184,7 @@ class WorldModel:
         if np.any(dist < window):
             np.minimum(window, dist, out=window)
             np.minimum(self._static[i0:i1, j0:j1], dist, out=self._static[i0:i1, j0:j1])
+            self._changed((i0, i1, j0, j1))
             self.version += 1
 
     def remove_known(self, obstacle: Obstacle) -> bool:
@@ -168,6 +195,8 @@ class WorldModel:
         remaining, version = [o for o in self._known if o != obstacle], self.version
         self._known = []
         self._reset_static()
+        self._inflated.clear()  # the static layer changed everywhere: rebuilt when next read
+        self._stale.clear()
         for other in remaining:
             self.add_known(other)
         self.version = version + 1  # one change, however many obstacles were re-added
@@ -222,26 +251,70 @@ class WorldModel:
         ``contact_inflation`` (default: the same); known obstacles and walls exact. The head
         sees only part of a hidden obstacle, and a bumper only the point it pressed: the rest
         lies beyond. With ``suspected``, suspected-surface cells count as contact cells.
-        Cached per inflation until ``version`` changes."""
+        One grid per inflation, brought up to date only where the layers changed since (with
+        suspected cells, built afresh for each version of the model)."""
         grow_contact = inflation if contact_inflation is None else contact_inflation
         suspect = suspected and (self._suspected_any or self._continuation_any())
-        key = ("inflated", inflation, grow_contact, suspect)
-        grid = self._cached(key)
-        if grid is None:
-            if grow_contact == inflation and not suspect:
-                grown = np.maximum(self._dynamic() - inflation, 0.0)
+        if suspect:
+            # Suspected cells, and never-observed ones next to sensed cells, come and go with
+            # the readings: this grid is built afresh for each version of the model.
+            key = ("inflated", inflation, grow_contact)
+            grid = self._cached(key)
+            if grid is None:
+                marked = self._contact | self._suspected | self._continuation()
+                near = clearance_map(marked, self.grid.resolution, self.settings.max_clearance)
+                grid = np.empty(self.grid.shape)
+                self._inflate(
+                    near, inflation, grow_contact, (0, self.grid.nx, 0, self.grid.ny), grid
+                )
+                grid = self._store(key, grid)
+        else:
+            grid = self._inflated.get((inflation, grow_contact))
+            near = self._contact_map.get(self._contact)
+            if grid is None:
+                grid = self._inflated[(inflation, grow_contact)] = np.empty(self.grid.shape)
+                self._inflate(
+                    near, inflation, grow_contact, (0, self.grid.nx, 0, self.grid.ny), grid
+                )
             else:
-                sensed = np.maximum(self._sensed_map.get(self._sensed.occupied) - inflation, 0.0)
-                if suspect:  # suspected cells come and go with beams: transformed afresh
-                    cap = self.settings.max_clearance
-                    marked = self._contact | self._suspected | self._continuation()
-                    near = clearance_map(marked, self.grid.resolution, cap)
-                else:
-                    near = self._contact_map.get(self._contact)
-                touched = np.maximum(near - grow_contact, 0.0)
-                grown = np.minimum(sensed, touched)
-            grid = self._store(key, np.minimum(self._static, grown))
+                for window in self._stale[(inflation, grow_contact)]:  # where the layers changed
+                    self._inflate(near, inflation, grow_contact, window, grid)
+            self._stale[(inflation, grow_contact)] = []
         return bilinear(grid, self.grid, np.asarray(points, dtype=float), self.bounds)
+
+    def _inflate(
+        self, near: Array, inflation: float, grow_contact: float, window: Window, out: Array
+    ) -> None:
+        """``inflated_clearance_at``'s grid over ``window`` of ``out``: sensed cells' clearance
+        less ``inflation``, ``near`` (the contacts' clearance, with suspected cells if they
+        count) less ``grow_contact``, at least 0, at most the static layer's. Element by
+        element, so a window of it equals the same window of the whole; the smaller of two
+        clearances less one inflation is the smaller clearance less it, so one formula serves
+        equal inflations too."""
+        sensed = self._sensed_map.get(self._sensed.occupied)
+        if occupancy_kernel.AVAILABLE:
+            _inflate_window(self._static, sensed, near, inflation, grow_contact, window, out)
+            return
+        i0, i1, j0, j1 = window
+        grown = np.minimum(
+            np.maximum(sensed[i0:i1, j0:j1] - inflation, 0.0),
+            np.maximum(near[i0:i1, j0:j1] - grow_contact, 0.0),
+        )
+        out[i0:i1, j0:j1] = np.minimum(self._static[i0:i1, j0:j1], grown)
+
+    def _changed(self, window: Window | None) -> None:
+        """The layers changed within ``window`` (``None``: nowhere): the inflated grids are
+        brought up to date there when next read (rebuilt when too much has changed)."""
+        if window is None:
+            return
+        for key in list(self._inflated):
+            stale = self._stale[key]
+            if len(stale) >= MAX_STALE_WINDOWS:
+                del self._inflated[key], self._stale[key]
+            elif stale and _overlap(stale[-1], window):
+                stale[-1] = _union(stale[-1], window)  # one update of both (nearby changes)
+            else:
+                stale.append(window)
 
     def clearance_at(self, points: Array) -> Array:
         """Clearance at world points ``[..., 2]``: bilinear between cell centres, exact to the
@@ -393,3 +466,31 @@ class WorldModel:
         value.flags.writeable = False  # shared with callers until the next change
         self._cache[key] = value
         return value
+
+
+def _overlap(a: Window, b: Window) -> bool:
+    """Whether two windows share cells."""
+    return a[0] < b[1] and b[0] < a[1] and a[2] < b[3] and b[2] < a[3]
+
+
+def _union(a: Window, b: Window) -> Window:
+    """The smallest window holding both."""
+    return min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3])
+
+
+@occupancy_kernel._jit
+def _inflate_window(  # pragma: no cover - compiled
+    static: Array,
+    sensed: Array,
+    near: Array,
+    inflation: float,
+    grow: float,
+    window: Window,
+    out: Array,
+) -> None:
+    """``WorldModel._inflate``'s numpy formula, cell by cell over ``window`` of ``out``."""
+    for i in range(window[0], window[1]):
+        for j in range(window[2], window[3]):
+            a = max(sensed[i, j] - inflation, 0.0)
+            b = max(near[i, j] - grow, 0.0)
+            out[i, j] = min(static[i, j], min(a, b))

@@ -159,6 +159,62 @@ def _ray_edge(
 
 
 @_jit
+def _first_hit(
+    ox: float,
+    oy: float,
+    dx: float,
+    dy: float,
+    r: int,
+    wall_a: Array,
+    wall_b: Array,
+    ids: NDArray[np.int64],
+    kind: NDArray[np.int64],
+    inside: NDArray[np.bool_],
+    circle_t: Array,
+    edge_a: Array,
+    edge_b: Array,
+) -> tuple[float, int]:  # pragma: no cover - compiled
+    """Ray ``r`` (unit direction dx, dy): the distance to the first hit and what it hit (the
+    walls first, then each obstacle in order; the first strict minimum wins)."""
+    best = np.inf
+    for w in range(wall_a.shape[0]):
+        best = min(
+            best,
+            _ray_edge(ox, oy, dx, dy, wall_a[w, 0], wall_a[w, 1], wall_b[w, 0], wall_b[w, 1]),
+        )
+    hit = -1
+    for j in range(ids.size):
+        if kind[j, 0] >= 0:
+            t = circle_t[r, kind[j, 0]]
+        elif inside[j]:
+            t = 0.0
+        else:
+            t = np.inf
+            for e in range(kind[j, 1], kind[j, 1] + kind[j, 2]):
+                t = min(
+                    t,
+                    _ray_edge(
+                        ox, oy, dx, dy, edge_a[e, 0], edge_a[e, 1], edge_b[e, 0], edge_b[e, 1]
+                    ),
+                )
+        if t < best:
+            best, hit = t, ids[j]
+    return best, hit
+
+
+@_jit
+def _origin_inside(
+    ox: float, oy: float, kind: NDArray[np.int64], edge_a: Array, edge_b: Array
+) -> NDArray[np.bool_]:  # pragma: no cover - compiled
+    """Per obstacle of a scene: whether the origin lies inside it (polygons only)."""
+    inside = np.zeros(kind.shape[0], dtype=np.bool_)
+    for j in range(kind.shape[0]):
+        if kind[j, 0] < 0:
+            inside[j] = _inside(ox, oy, edge_a, edge_b, kind[j, 1], kind[j, 1] + kind[j, 2])
+    return inside
+
+
+@_jit
 def ray_cast(  # pragma: no cover - compiled
     origin: Array,
     dirs: Array,  # [R, 2] unit rays
@@ -176,34 +232,84 @@ def ray_cast(  # pragma: no cover - compiled
     """``World.ray_cast``'s first hits: the walls first, then each obstacle in order, the
     first strict minimum wins (as ``argmin`` over its table); capped at ``max_range``."""
     ox, oy = origin[0], origin[1]
-    inside = np.zeros(ids.size, dtype=np.bool_)
-    for j in range(ids.size):
-        if kind[j, 0] < 0:
-            inside[j] = _inside(ox, oy, edge_a, edge_b, kind[j, 1], kind[j, 1] + kind[j, 2])
+    inside = _origin_inside(ox, oy, kind, edge_a, edge_b)
     for r in range(dirs.shape[0]):
-        dx, dy = dirs[r, 0], dirs[r, 1]
-        best = np.inf
-        for w in range(wall_a.shape[0]):
-            best = min(
-                best,
-                _ray_edge(ox, oy, dx, dy, wall_a[w, 0], wall_a[w, 1], wall_b[w, 0], wall_b[w, 1]),
-            )
-        hit = -1
-        for j in range(ids.size):
-            if kind[j, 0] >= 0:
-                t = circle_t[r, kind[j, 0]]
-            elif inside[j]:
-                t = 0.0
-            else:
-                t = np.inf
-                for e in range(kind[j, 1], kind[j, 1] + kind[j, 2]):
-                    t = min(
-                        t,
-                        _ray_edge(
-                            ox, oy, dx, dy, edge_a[e, 0], edge_a[e, 1], edge_b[e, 0], edge_b[e, 1]
-                        ),
-                    )
-            if t < best:
-                best, hit = t, ids[j]
+        best, hit = _first_hit(
+            ox,
+            oy,
+            dirs[r, 0],
+            dirs[r, 1],
+            r,
+            wall_a,
+            wall_b,
+            ids,
+            kind,
+            inside,
+            circle_t,
+            edge_a,
+            edge_b,
+        )
         what[r] = hit if best <= max_range else -2
         dist[r] = min(best, max_range)
+
+
+@_jit
+def sensor_cast(  # pragma: no cover - compiled
+    ox: float,
+    oy: float,
+    cos: Array,  # [R] the rays' unit directions, x ...
+    sin: Array,  # ... and y
+    max_range: float,
+    wall_a: Array,
+    wall_b: Array,
+    ids: NDArray[np.int64],
+    kind: NDArray[np.int64],
+    circle_t: Array,  # [R, circles]: distances, see circle_distances
+    edge_a: Array,
+    edge_b: Array,
+    starts: NDArray[np.int64],  # [S + 1]: sensor k's rays are starts[k]:starts[k + 1]
+    caps: Array,  # [S]: each sensor's own range
+    value: Array,  # out [S]: each sensor's nearest reading, capped at its range
+    what: NDArray[np.int64],  # out [S]: what that ray hit, -2 when nothing within the range
+) -> None:
+    """``ray_cast`` for the rays of several sensors, then per sensor the first of its rays
+    with the smallest capped distance (as ``min`` over them with that key). ``circle_t``
+    holds the circles' ray products from numpy (``circle_distances`` turns them into
+    distances first)."""
+    inside = _origin_inside(ox, oy, kind, edge_a, edge_b)
+    dist = np.empty(cos.size)
+    hits = np.empty(cos.size, dtype=np.int64)
+    for r in range(cos.size):
+        best, hit = _first_hit(
+            ox, oy, cos[r], sin[r], r, wall_a, wall_b, ids, kind, inside, circle_t, edge_a, edge_b
+        )
+        hits[r] = hit if best <= max_range else -2
+        dist[r] = min(best, max_range)
+    for k in range(caps.size):
+        cap = caps[k]
+        i = starts[k]
+        v = min(dist[i], cap)
+        for m in range(starts[k] + 1, starts[k + 1]):
+            if min(dist[m], cap) < v:
+                i, v = m, min(dist[m], cap)
+        value[k] = v
+        what[k] = hits[i] if dist[i] <= cap else -2
+
+
+@_jit
+def circle_distances(bq: Array, rr: Array, radii: Array) -> Array:  # pragma: no cover - compiled
+    """``Scene.circle_ray_cast`` from its products (numpy's, BLAS may fuse them): per circle
+    ``c`` and ray ``r``, ``bq[c, r]`` = dirs[r] · rel[c] and ``rr[c]`` = rel[c] · rel[c]
+    (rel = origin - centre); the rest element by element as numpy computes it. ``[R, C]``."""
+    n_c, n_r = bq.shape[0], bq.shape[1]
+    out = np.empty((n_r, n_c))
+    for c in range(n_c):
+        cq = rr[c] - radii[c] * radii[c]
+        for r in range(n_r):
+            b = bq[c, r]
+            disc = b * b - cq
+            root = math.sqrt(max(disc, 0.0))
+            near, far = -b - root, -b + root
+            t = near if near >= 0 else (0.0 if far >= 0 else np.inf)
+            out[r, c] = t if disc >= 0 else np.inf
+    return out

@@ -34,6 +34,24 @@ def as_batch(value: ArrayLike, width: int, name: str) -> Array:
     return arr
 
 
+def _single(value: ArrayLike, width: int) -> list[float] | None:
+    """``value`` as ``width`` finite floats when it is one plain vector of them (a float array
+    ``[width]``, or a list or tuple of floats), else ``None`` (``as_batch`` decides)."""
+    if type(value) is np.ndarray:
+        if value.shape != (width,) or value.dtype.char != "d":
+            return None
+        out: list[float] = value.tolist()
+    elif isinstance(value, list | tuple) and len(value) == width:
+        if not all(type(v) is float for v in value):
+            return None
+        out = list(value)
+    else:
+        return None
+    # a NaN or an infinity makes the sum one (finite values may overflow it: then the
+    # batched path decides, as it does for anything else)
+    return out if math.isfinite(sum(out)) else None
+
+
 def check_screw_speeds(theta: Array, geometry: RobotGeometry, name: str = "theta") -> None:
     limit = geometry.max_screw_speed
     if np.any(np.abs(theta) > limit + 1e-12):
@@ -49,7 +67,10 @@ def check_joint_angles(phi: Array, geometry: RobotGeometry, name: str = "joints"
 def clamp_joints(phi: Array, geometry: RobotGeometry) -> Array:
     """Keep joints off the singular all-parallel shapes at exactly ±π/2 (kinematics.md §3)."""
     m = geometry.max_joint_angle
-    return np.clip(phi, -m, m)
+    # np.clip's own numbers (the larger of phi and -m, then the smaller of that and m)
+    # without its Python-level checks: the simulator clamps three angles every step
+    out: Array = np.minimum(np.maximum(phi, -m), m)
+    return out
 
 
 @dataclass(frozen=True)
@@ -63,6 +84,18 @@ class FixedShape:
     def of(
         cls, theta: ArrayLike, joints: ArrayLike, geometry: RobotGeometry = DEFAULT_GEOMETRY
     ) -> FixedShape:
+        speeds, angles = _single(theta, N_UNITS), _single(joints, N_JOINTS)
+        if speeds is not None and angles is not None:
+            # One control, as the executor builds every tick: the checks and the clamp on
+            # Python floats (the same comparisons and the same min/max as np.clip); anything
+            # out of range takes the batched path below for its error.
+            speed_limit = geometry.max_screw_speed + 1e-12
+            angle_limit = geometry.joint_limit + 1e-12
+            if all(abs(v) <= speed_limit for v in speeds) and all(
+                abs(v) <= angle_limit for v in angles
+            ):
+                m = geometry.max_joint_angle
+                return cls(np.array([speeds]), np.array([[min(max(v, -m), m) for v in angles]]))
         th = as_batch(theta, N_UNITS, "theta")
         ph = as_batch(joints, N_JOINTS, "joints")
         if ph.shape[0] == 1 and th.shape[0] > 1:

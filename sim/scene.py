@@ -122,6 +122,18 @@ class Scene:
         out: Array = np.where(disc >= 0, t, np.inf)
         return out
 
+    def circle_products(self, origin: Array, dirs: Array) -> tuple[Array, Array]:
+        """The products ``circle_ray_cast`` starts from, as it computes them (one small product
+        per circle): ``dirs @ rel`` ``[circles, R]`` and ``rel @ rel`` ``[circles]``, with
+        ``rel = origin - centre`` (``collision_kernel.circle_distances`` does the rest)."""
+        rel = origin - self.centres
+        bq = np.empty((rel.shape[0], dirs.shape[0]))
+        rr = np.empty(rel.shape[0])
+        for c, r in enumerate(rel):
+            bq[c] = dirs @ r
+            rr[c] = r @ r
+        return bq, rr
+
     def near(self, lo: Array, hi: Array, margin: float) -> Index:
         """Indices of obstacles whose bounding boxes come within ``margin`` of the box
         ``lo``-``hi`` (a cheap test: the rest cannot be closer than ``margin``)."""

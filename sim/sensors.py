@@ -6,7 +6,9 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import NDArray
 
+from sim import collision_kernel
 from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry
 from sim.world import World
 
@@ -89,6 +91,9 @@ class SensorSuite:
     _rays: tuple[tuple[RangeSensor, ...], Array, list[int], float] | None = field(
         default=None, init=False, repr=False, compare=False
     )
+    _packed: tuple[Array, NDArray[np.int64], Array, list[tuple[str, float, float]]] = field(
+        init=False, repr=False, compare=False
+    )
 
     def __post_init__(self) -> None:
         names = [s.name for s in self.range_sensors]
@@ -111,6 +116,14 @@ class SensorSuite:
             flat = np.concatenate(angles) if angles else np.zeros(0)
             cached = (self.range_sensors, flat, offsets, reach)
             self._rays = cached
+            # the same for the compiled read: the offsets with the head's own direction (0)
+            # last, where the rays start as an array, and each sensor's range
+            self._packed = (
+                np.append(flat, 0.0),
+                np.array(offsets, dtype=np.int64),
+                np.array([s.max_range for s in self.range_sensors], dtype=float),
+                [(s.name, s.noise_std, s.max_range) for s in self.range_sensors],
+            )
         return cached[1], cached[2], cached[3]
 
     def read(
@@ -122,6 +135,24 @@ class SensorSuite:
         # One ray cast for every ray of every sensor (capped per sensor afterwards); the head
         # tip as head_tip() computes it, its cos and sin in the same numpy call as the rays'.
         offsets, starts, reach = self._layout()
+        if collision_kernel.AVAILABLE and self.range_sensors:
+            # The same rays, cast and reduced per sensor in one compiled call (forward + 0.0
+            # is forward: the head's direction comes out as np.append put it last).
+            with_head, first, caps, sensors = self._packed
+            angles = forward + with_head
+            cos, sin = np.cos(angles), np.sin(angles)
+            hl = self.geometry.head_length
+            tip = (float(pose[0]) + hl * float(cos[-1]), float(pose[1]) + hl * float(sin[-1]))
+            nearest, seen = world.sensor_cast(tip, cos[:-1], sin[:-1], reach, first, caps)
+            values, whats = nearest.tolist(), seen.tolist()
+            for k, (name, noise_std, cap) in enumerate(sensors):
+                v, what = values[k], whats[k]
+                if noise_std > 0 and what != NOTHING:  # as below
+                    noisy = v + self.rng.normal(0, noise_std)
+                    v = min(max(noisy, 0.0), math.nextafter(cap, 0.0))  # np.clip's order
+                ranges[name] = math.nan if name in dropped else v
+                hits[name] = what
+            return self._finish(ranges, hits, joints, pose, dropped, tip)
         angles = np.append(forward + offsets, forward)
         cos, sin = np.cos(angles), np.sin(angles)
         hl = self.geometry.head_length
@@ -142,6 +173,18 @@ class SensorSuite:
                 value = float(np.clip(noisy, 0, np.nextafter(cap, 0)))
             ranges[sensor.name] = math.nan if sensor.name in dropped else value
             hits[sensor.name] = int(what)
+        return self._finish(ranges, hits, joints, pose, dropped, tip)
+
+    def _finish(
+        self,
+        ranges: dict[str, float],
+        hits: dict[str, int],
+        joints: Array,
+        pose: Array,
+        dropped: frozenset[str],
+        tip: tuple[float, float],
+    ) -> SensorReadings:
+        """The joint sensors (noise drawn after the ranges' noise) and the readings."""
         measured = np.array(joints, dtype=float)
         if self.joint_noise_std > 0:
             measured = measured + self.rng.normal(0, self.joint_noise_std, size=3)

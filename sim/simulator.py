@@ -23,7 +23,9 @@ from sim.robot import (
 )
 from sim.rollout import JOINT_MODES, JointMode
 from sim.sensors import SensorReadings, SensorSuite
-from sim.world import Contact, World, footprint, footprint_of
+from sim.world import Contact, World, footprint, footprint_of_chain
+
+TWISTS_KEPT = 256  # body twists remembered per simulator (screw speeds and shapes met)
 
 
 @dataclass(frozen=True)
@@ -82,8 +84,8 @@ class Simulator:
         self.pose = p.copy()
         self.joints = clamp_joints(j, self.geometry)[0]
         self.forced: Array | None = None
-        self._last_twist: tuple[bytes, Array] | None = None
-        self._bodies: list[tuple[bytes, tuple[Array, Array]]] = []
+        self._twists: dict[bytes, Array] = {}  # body_twist by screw speeds and shape
+        self._bodies: list[tuple[bytes, Array]] = []
         self.dropouts: list[SensorDropout] = []
         self.pending = list(self.events)
         self.collisions = 0
@@ -96,7 +98,7 @@ class Simulator:
         return self.read()
 
     def _row(self) -> list[float]:
-        return [self.t, *map(float, self.pose), *map(float, self.joints)]
+        return [self.t, *self.pose.tolist(), *self.joints.tolist()]
 
     def read(self) -> SensorReadings:
         dropped = frozenset(
@@ -169,38 +171,40 @@ class Simulator:
         )
 
     def _twist(self, theta: Array, phi: Array, dphi: Array | None) -> Array:
-        """``body_twist``, remembered for the last screw speeds and shape: a primitive holds
-        both for many steps (the same inputs give the same twist)."""
+        """``body_twist``, remembered for the screw speeds and shapes met so far (at most
+        ``TWISTS_KEPT``): a primitive holds both for many steps, and a plan runs the same
+        library primitives again and again (the same inputs give the same twist)."""
         if dphi is not None:
             return body_twist(theta, phi, dphi, self.geometry)
         key = theta.tobytes() + phi.tobytes()
-        if self._last_twist is None or self._last_twist[0] != key:
-            self._last_twist = (key, body_twist(theta, phi, None, self.geometry))
-        return self._last_twist[1]
+        twist = self._twists.get(key)
+        if twist is None:
+            if len(self._twists) >= TWISTS_KEPT:
+                self._twists.clear()
+            twist = self._twists[key] = body_twist(theta, phi, None, self.geometry)
+            twist.flags.writeable = False  # shared by every step that meets these inputs
+        return twist
 
-    def _body(self, pose: Array, phi: Array) -> tuple[Array, Array]:
-        """Joint positions and head tip at (pose, phi), the last two answers remembered: a step
-        usually starts where the last one ended."""
+    def _body(self, pose: Array, phi: Array) -> Array:
+        """The chain (head tip, joint positions) at (pose, phi), the last two answers
+        remembered: a step usually starts where the last one ended."""
         key = pose.tobytes() + phi.tobytes()
         for known, value in self._bodies:
             if known == key:
                 return value
-        value = body_points(pose, phi, self.geometry)
+        value = body_chain(pose, phi, self.geometry)
         self._bodies = [(key, value), *self._bodies[:1]]
         return value
 
     def _sweep(self, phi0: Array, pose1: Array, phi1: Array) -> Contact | None:
         """Move towards (pose1, phi1) in checked sub-steps; stop before the first contact."""
         pose0 = self.pose
-        joints0, tip0 = self._body(pose0, phi0)
-        joints1, tip1 = self._body(pose1, phi1)
+        chain0 = self._body(pose0, phi0)
+        chain1 = self._body(pose1, phi1)
         # Chords under-estimate arcs slightly when the body turns; 5 % covers |Δψ| up to ~0.6 rad.
-        moved = max(
-            math.sqrt(dx * dx + dy * dy)
-            for dx, dy in ([*(joints1 - joints0).tolist(), (tip1[0] - tip0[0], tip1[1] - tip0[1])])
-        )
+        moved = max(math.sqrt(dx * dx + dy * dy) for dx, dy in (chain1 - chain0).tolist())
         travel = 1.05 * float(moved)
-        if self.world.free_within(footprint_of(joints0, tip0, self.geometry), travel):
+        if self.world.free_within(footprint_of_chain(chain0, self.geometry), travel):
             self.pose, self.joints = pose1, phi1
             return None
         n = max(1, math.ceil(travel / self.check_step))
@@ -214,22 +218,23 @@ class Simulator:
         return None
 
 
-def body_points(pose: Array, phi: Array, geometry: RobotGeometry) -> tuple[Array, Array]:
-    """``joint_positions`` and ``head_tip`` of one pose ``[3]`` and shape ``[3]``: the same
-    operations element by element (the five angles' cos and sin in one numpy call, the sums
-    in the cumulative sums' order), on Python floats, far cheaper for one robot."""
+def body_chain(pose: Array, phi: Array, geometry: RobotGeometry) -> Array:
+    """The head tip and the ``joint_positions`` of one pose ``[3]`` and shape ``[3]``, as one
+    array ``[6, 2]``: the same operations as ``head_tip`` and ``joint_positions`` element by
+    element (the five angles' cos and sin in one numpy call, the sums in the cumulative sums'
+    order), on Python floats, far cheaper for one robot."""
     x, y, psi = pose.tolist()
     p0, p1, p2 = phi.tolist()
     h2 = p0 + p1
     angles = np.array([psi + 0.0, psi + p0, psi + h2, psi + (h2 + p2), psi + math.pi])
     cos, sin = np.cos(angles).tolist(), np.sin(angles).tolist()
     seg = [*geometry.segments.tolist(), geometry.unit_length]
-    points = [[x, y]]
+    hl = geometry.head_length
+    points = [x + hl * cos[4], y + hl * sin[4], x, y]
     ox = oy = 0.0
     for i in range(4):
         # cumsum adds from the first term: 0 + a == a, so start from the first step itself
         sx, sy = seg[i] * cos[i], seg[i] * sin[i]
         ox, oy = (sx, sy) if i == 0 else (ox + sx, oy + sy)
-        points.append([x + ox, y + oy])
-    hl = geometry.head_length
-    return np.array(points), np.array([x + hl * cos[4], y + hl * sin[4]])
+        points += (x + ox, y + oy)
+    return np.array(points).reshape(6, 2)

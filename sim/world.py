@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from typing import cast
 
 import numpy as np
+from numpy.typing import NDArray
 
 from sim import collision_kernel
 from sim.obstacles import Obstacle, ray_segment_hits
@@ -15,6 +16,8 @@ from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry, head_tip, joint_po
 from sim.scene import Scene
 
 WALL = -1  # obstacle index reported for the arena bounds
+CANDIDATE_SLACK = 0.25  # m a ray origin may move before its candidate obstacles are found anew
+_NO_CIRCLES = np.zeros((0, 0))
 
 
 @dataclass(frozen=True)
@@ -81,8 +84,27 @@ def footprint_of(js: Array, tip: Array, geometry: RobotGeometry = DEFAULT_GEOMET
     computed (the simulator has them at hand)."""
     starts = np.concatenate([tip[..., None, :], js[..., :-1, :]], axis=-2)
     ends = np.concatenate([js[..., :1, :], js[..., 1:, :]], axis=-2)
-    radii = np.array([geometry.head_radius] + [geometry.unit_radius] * 4)
-    return Footprint(starts, ends, radii)
+    return Footprint(starts, ends, footprint_radii(geometry))
+
+
+def footprint_of_chain(chain: Array, geometry: RobotGeometry = DEFAULT_GEOMETRY) -> Footprint:
+    """The footprint of one pose from its chain ``[6, 2]``: the head tip, then the joint
+    positions (``footprint_of`` of those, the same capsules as views of one array)."""
+    return Footprint(chain[:-1], chain[1:], footprint_radii(geometry))
+
+
+_RADII: dict[tuple[float, float], Array] = {}
+
+
+def footprint_radii(geometry: RobotGeometry = DEFAULT_GEOMETRY) -> Array:
+    """The capsules' radii ``[5]`` (head, units 1-4): one read-only array per geometry."""
+    key = (geometry.head_radius, geometry.unit_radius)
+    radii = _RADII.get(key)
+    if radii is None:
+        radii = np.array([geometry.head_radius] + [geometry.unit_radius] * 4)
+        radii.flags.writeable = False
+        _RADII[key] = radii
+    return radii
 
 
 SIDES = ("front", "rear", "left", "right")
@@ -113,10 +135,25 @@ class World:
         init=False, repr=False, compare=False, default_factory=dict
     )
     _walls: tuple[Array, Array] = field(init=False, repr=False, compare=False)
+    _near_cache: dict[float, tuple[tuple[float, float], NDArray[np.int64], Scene]] = field(
+        init=False, repr=False, compare=False, default_factory=dict
+    )
+    _full: list[tuple[Scene, Array]] = field(
+        init=False, repr=False, compare=False, default_factory=list
+    )
 
     def __post_init__(self) -> None:
         corners = self.bounds.corners()
         object.__setattr__(self, "_walls", (corners, np.roll(corners, -1, axis=0)))
+
+    @property
+    def _everything(self) -> tuple[Scene, Array]:
+        """The scene of every obstacle and the bounds as an array (for the compiled gap)."""
+        if not self._full:
+            b = self.bounds
+            box = np.array([b.xmin, b.xmax, b.ymin, b.ymax])
+            self._full.append((self._scene(tuple(range(len(self.obstacles)))), box))
+        return self._full[0]
 
     def _scene(self, indices: tuple[int, ...]) -> Scene:
         """The packed arrays of the obstacles at ``indices`` (cached: a mission meets few sets)."""
@@ -237,6 +274,69 @@ class World:
         )
         return dist, cast(Array, what)  # integer indices, typed as ray_cast declares them
 
+    def sensor_cast(
+        self,
+        origin: tuple[float, float],
+        cos: Array,
+        sin: Array,
+        max_range: float,
+        starts: NDArray[np.int64],
+        caps: Array,
+    ) -> tuple[Array, NDArray[np.int64]]:
+        """Several sensors' readings at once, compiled (``collision_kernel.AVAILABLE``): rays
+        of unit directions (``cos``, ``sin``) ``[R]`` from ``origin`` as ``ray_cast`` casts
+        them, then per sensor ``k`` (rays ``starts[k]:starts[k + 1]``, range ``caps[k]``) the
+        first of its rays with the smallest distance capped at its range, and what that ray
+        hit (-2 beyond the range). Returns (distances ``[S]``, what ``[S]``)."""
+        ids, scene = self._candidates(origin, max_range)
+        if scene.circle_index.size:
+            dirs = np.empty((cos.size, 2))  # as ray_cast's callers stack them
+            dirs[:, 0], dirs[:, 1] = cos, sin
+            bq, rr = scene.circle_products(np.array(origin), dirs)
+            circle_t = collision_kernel.circle_distances(bq, rr, scene.radii)
+        else:
+            circle_t = _NO_CIRCLES
+        corners, following = self._walls
+        value = np.empty(caps.size)
+        what = np.empty(caps.size, dtype=np.int64)
+        collision_kernel.sensor_cast(
+            origin[0],
+            origin[1],
+            cos,
+            sin,
+            float(max_range),
+            corners,
+            following,
+            ids,
+            scene.kind,
+            circle_t,
+            scene.edge_a,
+            scene.edge_b,
+            starts,
+            caps,
+            value,
+            what,
+        )
+        return value, what
+
+    def _candidates(
+        self, origin: tuple[float, float], reach: float
+    ) -> tuple[NDArray[np.int64], Scene]:
+        """The obstacles whose boxes come within ``reach`` + ``CANDIDATE_SLACK`` of a point
+        at most ``CANDIDATE_SLACK`` (each axis) from ``origin``: a superset of those within
+        ``reach`` of it, kept while the origin stays that close. Rays cast against a superset
+        give the same capped answer (what lies beyond ``reach`` reads as nothing within it),
+        so the set is recomputed only every few steps, not for every reading."""
+        cached = self._near_cache.get(reach)
+        if cached is not None:
+            (ax, ay), ids, scene = cached
+            if abs(origin[0] - ax) <= CANDIDATE_SLACK and abs(origin[1] - ay) <= CANDIDATE_SLACK:
+                return ids, scene
+        near = self._near_point(np.array(origin), reach + CANDIDATE_SLACK)
+        ids, scene = np.array(near, dtype=np.int64), self._scene(near)
+        self._near_cache[reach] = (origin, ids, scene)
+        return ids, scene
+
     def gap(self, fp: Footprint) -> float:
         """Smallest gap between a footprint and any obstacle or wall (0 if touching)."""
         ends = np.concatenate([fp.starts, fp.ends])
@@ -251,14 +351,13 @@ class World:
         """Whether ``distance <= gap(fp)``, measuring only obstacles that could decide it
         (those whose bounding boxes come within ``distance`` + the largest radius)."""
         if collision_kernel.AVAILABLE and fp.starts.ndim == 2:
-            scene = self._scene(tuple(range(len(self.obstacles))))
-            b = self.bounds
+            scene, box = self._everything
             gap: float = collision_kernel.gap(
                 fp.starts,
                 fp.ends,
                 fp.radii,
-                np.array([b.xmin, b.xmax, b.ymin, b.ymax]),
-                distance + float(np.max(fp.radii)),
+                box,
+                distance + max(fp.radii.tolist()),
                 scene.boxes,
                 scene.kind,
                 scene.centres,

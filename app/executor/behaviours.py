@@ -14,10 +14,10 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import py_trees
 from py_trees.common import Access, Status
 
 from app.executor.context import MissionContext
+from app.executor.light import LightBehaviour
 from app.executor.robot import ContactReading
 from app.missions.spec import ARRIVE_FRACTION
 from domain.strategy import Command
@@ -38,18 +38,21 @@ SUSPECT_DEPTH = 0.1  # ... and no deeper into the touched side than this (a thin
 # side, where a goal may lie, is not suspected)
 
 
-class MissionBehaviour(py_trees.behaviour.Behaviour):
-    """A behaviour reading the mission context from its blackboard namespace."""
+class MissionBehaviour(LightBehaviour):
+    """A behaviour reading the mission context from its blackboard namespace (once: the
+    context is one object for the whole mission, and behaviours read it every tick)."""
 
     def __init__(self, name: str, namespace: str) -> None:
         super().__init__(name)
         self.bb = self.attach_blackboard_client(name=name, namespace=namespace)
         self.bb.register_key("context", access=Access.READ)
+        self._ctx: MissionContext | None = None
 
     @property
     def ctx(self) -> MissionContext:
-        context: MissionContext = self.bb.context
-        return context
+        if self._ctx is None:
+            self._ctx = self.bb.context
+        return self._ctx
 
     def fail(self, trigger: Trigger, message: str) -> Status:
         self.ctx.trigger = trigger
@@ -160,10 +163,12 @@ class ShapeGuard(MissionBehaviour):
 
     def update(self) -> Status:
         ctx = self.ctx
-        sensed = np.asarray(ctx.observation.joints, dtype=float)
-        if not np.all(np.isfinite(sensed)) or SHAPES[ctx.shape].periodic:
+        a, b, c = sensed = ctx.observation.joints  # three floats: compared as such, every tick
+        finite = math.isfinite
+        if not (finite(a) and finite(b) and finite(c)) or SHAPES[ctx.shape].periodic:
             return Status.SUCCESS  # no reading (dropout), or the gait moves the joints on purpose
-        if float(np.max(np.abs(sensed - np.asarray(ctx.joints)))) <= SHAPE_TOLERANCE:
+        ca, cb, cc = ctx.joints
+        if max(abs(a - ca), abs(b - cb), abs(c - cc)) <= SHAPE_TOLERANCE:
             return Status.SUCCESS
         joints = (float(sensed[0]), float(sensed[1]), float(sensed[2]))
         coverage = ctx.library.covers(joints)

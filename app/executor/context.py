@@ -77,6 +77,11 @@ class MissionContext:
     chain_entry_pose: tuple[float, float, float] | None = None
     executed: list[dict[str, Any]] = field(default_factory=list)
     cancel: CancelFlag | None = None  # the mission's cancel flag, passed to the planner
+    # the last situation and what it was built from: the guards and the execution ask for
+    # it in the same tick, and the remaining goals change seldom
+    _situation: tuple[Observation, tuple[Any, ...], Situation] | None = field(
+        default=None, repr=False, compare=False
+    )
 
     @property
     def t(self) -> float:
@@ -147,11 +152,20 @@ class MissionContext:
         self.event("goal_reached", goal=index, error=round(goal.error, 4))
 
     def situation(self) -> Situation:
-        left = self.remaining_goals()
-        goals = tuple(
-            LegGoal(i, self.goals[i].x, self.goals[i].y, self.goals[i].tolerance) for i in left
-        )
-        return Situation(
+        """What the strategy gets to decide on; the same object while nothing it holds changed
+        (the same observation, shape, joints and remaining goals)."""
+        left = tuple(self.remaining_goals())
+        key = (self.shape, self.deformed, self.joints, left, self.world)
+        cached = self._situation
+        if cached is not None and cached[0] is self.observation and cached[1] == key:
+            return cached[2]
+        if cached is not None and cached[1][3] == left:
+            goals = cached[2].goals
+        else:
+            goals = tuple(
+                LegGoal(i, self.goals[i].x, self.goals[i].y, self.goals[i].tolerance) for i in left
+            )
+        situation = Situation(
             t=self.t,
             pose=self.pose,
             joints=self.sensed_joints(),
@@ -162,6 +176,8 @@ class MissionContext:
             ranges=self.observation.ranges,
             deformed=self.deformed,
         )
+        self._situation = (self.observation, key, situation)
+        return situation
 
 
 @dataclass

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from app.missions.spec import MissionSpec
+from domain.observation import trusted_observation
 from domain.worldmodel import RangeObservation
 from sim.controls import Control
 from sim.events import Deformation, Event, SensorDropout
@@ -113,6 +114,14 @@ class SimRobot:
             for e in simulator.initial_events
             if e.kind == "dropout"
         ]
+        # Each range sensor's fixed part (name, axis offset, fov, range, noise), checked once
+        # by building one observation from it: every tick then builds them unchecked.
+        self._sensors = [
+            (s.name, s.angle, s.fov, s.max_range, s.noise_std)
+            for s in simulator.sensors.range_sensors
+        ]
+        for _, angle, fov, reach, noise in self._sensors:
+            RangeObservation((0.0, 0.0), angle, fov, reach, math.nan, False, noise)
         self._last = self._observation(simulator.read())
 
     @property
@@ -156,26 +165,22 @@ class SimRobot:
             origin = head_tip(pose, self.sim.geometry)
             at = (float(origin[0]), float(origin[1]))
         forward = float(pose[2]) + math.pi
+        if not (math.isfinite(at[0]) and math.isfinite(at[1]) and math.isfinite(forward)):
+            raise ValueError("robot pose: must be finite")
+        values = readings.ranges
         ranges = []
-        for sensor in self.sim.sensors.range_sensors:
-            d = readings.ranges[sensor.name]
-            hit = not math.isnan(d) and d < sensor.max_range
-            obs = RangeObservation(
-                origin=at,
-                angle=forward + sensor.angle,
-                fov=sensor.fov,
-                max_range=sensor.max_range,
-                distance=d,
-                hit=hit,
-                noise_std=sensor.noise_std,
-            )
-            ranges.append((sensor.name, obs))
+        for name, angle, fov, reach, noise in self._sensors:
+            d = values[name]
+            hit = not math.isnan(d) and d < reach
+            obs = trusted_observation(at, forward + angle, fov, reach, d, hit, noise)
+            ranges.append((name, obs))
         log, self._log = tuple(self._log), []
-        joints = readings.joints
+        x, y, psi = pose.tolist()
+        j1, j2, j3 = readings.joints.tolist()
         return Observation(
             t=round(float(self.sim.t), 9),
-            pose=(float(pose[0]), float(pose[1]), float(pose[2])),
-            joints=(float(joints[0]), float(joints[1]), float(joints[2])),
+            pose=(x, y, psi),
+            joints=(j1, j2, j3),
             ranges=tuple(ranges),
             contact=self._contact,
             log=log,

@@ -7,7 +7,9 @@ import pytest
 
 from domain.clearance import DistanceMap, clearance_map
 from domain.grid import Grid
+from domain.interpolate import bilinear
 from domain.worldmodel import RangeObservation, WorldModel
+from sim.obstacles import Circle
 from sim.world import Bounds
 
 
@@ -68,3 +70,100 @@ def test_world_model_clearance_stays_that_of_its_layers() -> None:
             full = clearance_map(layers, model.grid.resolution, cap)
             np.testing.assert_array_equal(model.clearance(), np.minimum(static, full))
     assert model.sensed_occupied().any() and model.contact_occupied().any()
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_windowed_removals_equal_the_full_transform(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    grid = Grid(Bounds(-6, 6, -4, 5), 0.05)
+    cap = float(rng.choice([0.3, 1.0, 2.0]))
+    occupied = np.zeros(grid.shape, dtype=bool)
+    occupied.flat[rng.integers(0, occupied.size, 40)] = True
+    other = np.zeros(grid.shape, dtype=bool)  # a second layer in the union
+    other.flat[rng.integers(0, occupied.size, 10)] = True
+    live = DistanceMap(grid, cap)
+    live.get(occupied, other)
+    for _ in range(20):
+        gone = np.flatnonzero(occupied)
+        gone = rng.choice(gone, min(gone.size, int(rng.integers(1, 4))), replace=False)
+        occupied.flat[gone] = False
+        live.remove((occupied, other), np.unique(gone))
+        np.testing.assert_array_equal(live.get(), clearance_map(occupied | other, 0.05, cap))
+
+
+def reference_inflated(model: WorldModel, inflation: float, grow: float, suspect: bool):
+    """The inflated clearance grid from full transforms of the layers as they are now."""
+    cap, res = model.settings.max_clearance, model.grid.resolution
+    sensed = np.maximum(clearance_map(model.sensed_occupied(), res, cap) - inflation, 0.0)
+    touched = model.contact_occupied() | (model.suspected() if suspect else False)
+    near = np.maximum(clearance_map(touched, res, cap) - grow, 0.0)
+    if grow == inflation and not suspect:
+        dynamic = np.minimum(
+            clearance_map(model.sensed_occupied(), res, cap),
+            clearance_map(model.contact_occupied(), res, cap),
+        )
+        return np.minimum(model._static, np.maximum(dynamic - inflation, 0.0))
+    return np.minimum(model._static, np.minimum(sensed, near))
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_inflated_clearance_kept_current_equals_a_rebuild(seed: int) -> None:
+    """Readings that mark and unmark cells, contacts, suspected cells that beams clear again,
+    a known obstacle: the inflated grids, read now and then, are always those of the layers."""
+    rng = np.random.default_rng(seed)
+    bounds = Bounds(-3, 3, -3, 3)
+    model = WorldModel(bounds)
+    targets = rng.uniform(-2, 2, (6, 2))
+    centres = model.grid.centres(np.arange(model.grid.nx * model.grid.ny)).reshape(
+        model.grid.nx, model.grid.ny, 2
+    )
+    keys = [(0.05, 0.1, True), (0.05, 0.05, False), (0.05, 0.02, False), (0.05, 0.1, False)]
+    suspected_seen = False
+    for tick in range(90):
+        readings = []
+        for _ in range(5):
+            target = targets[int(rng.integers(len(targets)))]
+            origin = target + rng.uniform(-0.8, 0.8, 2)
+            offset = target - origin
+            d = float(np.hypot(*offset)) + (0.0 if (tick // 20) % 2 == 0 else 0.3)
+            angle = float(np.arctan2(offset[1], offset[0]))
+            at = (float(origin[0]), float(origin[1]))
+            readings.append(RangeObservation(at, angle, 0.0, 1.5, d, True, 0.02))
+        model.integrate(readings)
+        if tick % 15 == 3:
+            model.add_contact((float(rng.uniform(-2.5, 2.5)), float(rng.uniform(-2.5, 2.5))))
+        if tick % 10 == 5:  # along a beam's line: later readings see some of them free
+            target = targets[int(rng.integers(len(targets)))]
+            line = target + np.linspace(-0.4, 0.4, 12)[:, None] * rng.normal(size=2)
+            model.add_suspected([(float(x), float(y)) for x, y in line])
+        if tick == 40:
+            model.add_known(Circle(float(targets[0][0]), float(targets[0][1]), 0.2))
+        suspected_seen |= bool(model.suspected().any())
+        if tick % int(rng.integers(1, 6)) == 0:
+            inflation, grow, suspect = keys[int(rng.integers(len(keys)))]
+            got = model.inflated_clearance_at(centres, inflation, grow, suspected=suspect)
+            want = reference_inflated(model, inflation, grow, suspect and model.suspected().any())
+            np.testing.assert_array_equal(got, bilinear(want, model.grid, centres, bounds))
+    assert suspected_seen and model.contact_occupied().any()
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_compiled_transform_equals_scipys(seed: int) -> None:
+    """The compiled clearance map gives scipy's transform's numbers, value for value: sparse,
+    dense, thin and one-cell grids, several resolutions and caps."""
+    from scipy import ndimage
+
+    from domain import occupancy_kernel
+
+    if not occupancy_kernel.AVAILABLE:
+        pytest.skip("numba kernels are off")
+    rng = np.random.default_rng(seed)
+    for _ in range(40):
+        nx, ny = (int(n) for n in rng.integers(1, 70, 2))
+        occupied = rng.random((nx, ny)) < rng.choice([0.002, 0.02, 0.2, 0.6, 0.95])
+        occupied.flat[int(rng.integers(occupied.size))] = True
+        resolution, cap = float(rng.choice([0.03, 0.05, 0.1])), float(rng.choice([0.3, 2.0, 50.0]))
+        scipy_map = np.clip(
+            ndimage.distance_transform_edt(~occupied) * resolution - 0.5 * resolution, 0.0, cap
+        )
+        np.testing.assert_array_equal(clearance_map(occupied, resolution, cap), scipy_map)

@@ -31,10 +31,12 @@ SENSORS = (
 )
 
 
-def readings(world: World, rng: np.random.Generator, x: float, y: float, psi: float):
+def readings(
+    world: World, rng: np.random.Generator, x: float, y: float, psi: float, sensors=SENSORS
+):
     """Each sensor's nearest hit by ray casting the true world, noisy, sometimes dropped out."""
     out = []
-    for offset, fov, reach, sigma in SENSORS:
+    for offset, fov, reach, sigma in sensors:
         axis = psi + offset
         angles = axis + np.linspace(-fov / 2, fov / 2, 9 if fov else 1)
         dist, what = world.ray_cast(np.array([x, y]), unit_vectors(angles), reach)
@@ -49,8 +51,14 @@ def readings(world: World, rng: np.random.Generator, x: float, y: float, psi: fl
     return out
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2])
-def test_compiled_update_equals_numpy(seed: int) -> None:
+# noisier sensors than the compiled layout's first likelihood table covers (σ 0.1, 0.2 m)
+NOISY = (*SENSORS[:3], (1.0, math.radians(20), 1.5, 0.1), (-1.0, 0.0, 1.5, 0.2))
+
+
+@pytest.mark.parametrize(
+    ("seed", "sensors"), [(0, SENSORS), (1, SENSORS), (2, SENSORS), (0, NOISY)]
+)
+def test_compiled_update_equals_numpy(seed: int, sensors) -> None:
     """Along a random walk past obstacles (some known, some hidden), both layers hold the same
     log-odds bit for bit and report the same cells becoming and ceasing to be occupied."""
     rng = np.random.default_rng(seed)
@@ -67,7 +75,7 @@ def test_compiled_update_equals_numpy(seed: int) -> None:
         psi += rng.normal(0.0, 0.3)
         x = float(np.clip(x + 0.05 * math.cos(psi), -2.8, 2.8))
         y = float(np.clip(y + 0.05 * math.sin(psi), -1.8, 1.8))
-        obs = readings(world, rng, x, y, psi)
+        obs = readings(world, rng, x, y, psi, sensors)
         became, ceased = compiled.integrate(obs, known)
         ref_became, ref_ceased = reference.integrate(obs, known)
         np.testing.assert_array_equal(became, ref_became)
