@@ -13,13 +13,19 @@ from sim.obstacles import Circle
 from sim.world import Bounds
 
 
-@pytest.mark.parametrize("seed", range(30))
-def test_windowed_additions_equal_the_full_transform(seed: int) -> None:
+def random_layer(seed: int, cells: int) -> tuple[np.random.Generator, Grid, float, np.ndarray]:
+    """A seeded generator, a 12 m x 9 m grid, a clearance cap and ``cells`` occupied cells."""
     rng = np.random.default_rng(seed)
     grid = Grid(Bounds(-6, 6, -4, 5), 0.05)
     cap = float(rng.choice([0.3, 1.0, 2.0]))
     occupied = np.zeros(grid.shape, dtype=bool)
-    occupied.flat[rng.integers(0, occupied.size, 5)] = True
+    occupied.flat[rng.integers(0, occupied.size, cells)] = True
+    return rng, grid, cap, occupied
+
+
+@pytest.mark.parametrize("seed", range(30))
+def test_windowed_additions_equal_the_full_transform(seed: int) -> None:
+    rng, grid, cap, occupied = random_layer(seed, 5)
     live = DistanceMap(grid, cap)
     live.get(occupied)  # a map to update from
     for _ in range(20):
@@ -74,11 +80,7 @@ def test_world_model_clearance_stays_that_of_its_layers() -> None:
 
 @pytest.mark.parametrize("seed", range(20))
 def test_windowed_removals_equal_the_full_transform(seed: int) -> None:
-    rng = np.random.default_rng(seed)
-    grid = Grid(Bounds(-6, 6, -4, 5), 0.05)
-    cap = float(rng.choice([0.3, 1.0, 2.0]))
-    occupied = np.zeros(grid.shape, dtype=bool)
-    occupied.flat[rng.integers(0, occupied.size, 40)] = True
+    rng, grid, cap, occupied = random_layer(seed, 40)
     other = np.zeros(grid.shape, dtype=bool)  # a second layer in the union
     other.flat[rng.integers(0, occupied.size, 10)] = True
     live = DistanceMap(grid, cap)
