@@ -165,7 +165,7 @@ class NavigationStrategy:
         world = s.world
         plan = LatticePlan("unsolvable")
         goals = tuple((g.x, g.y) for g in s.goals)
-        for tier in tiers(bool(np.any(world.suspected()))):
+        for tier in tiers(world.any_suspected()):
             self.clearance = tier_clearance(world, tier, goals)
             plan = self.planner.plan(
                 table,

@@ -173,6 +173,15 @@ class WorldModel:
         out: NDArray[np.bool_] = self._suspected | self._continuation()
         return out
 
+    def any_suspected(self) -> bool:
+        """Whether any cell is suspected (without building the layer)."""
+        if self._suspected_any:
+            return True
+        key = "continuation-any"  # a plain bool: cached beside the arrays, not through _store
+        if self._cached(key) is None:
+            self._cache[key] = bool(np.any(self._continuation()))
+        return bool(self._cache[key])
+
     def add_known(self, obstacle: Obstacle) -> None:
         """Add a known obstacle to the static layer (exact distances within ``max_clearance``)."""
         self._known.append(obstacle)
@@ -254,7 +263,7 @@ class WorldModel:
         One grid per inflation, brought up to date only where the layers changed since (with
         suspected cells, built afresh for each version of the model)."""
         grow_contact = inflation if contact_inflation is None else contact_inflation
-        suspect = suspected and (self._suspected_any or self._continuation_any())
+        suspect = suspected and self.any_suspected()
         if suspect:
             # Suspected cells, and never-observed ones next to sensed cells, come and go with
             # the readings: this grid is built afresh for each version of the model.
@@ -445,12 +454,6 @@ class WorldModel:
             cached = self._store("continuation", cached)
         out: NDArray[np.bool_] = cached
         return out
-
-    def _continuation_any(self) -> bool:
-        cached = self._cached("continuation-any")
-        if cached is None:
-            cached = self._cache["continuation-any"] = bool(np.any(self._continuation()))
-        return bool(cached)
 
     def _interpolate(self, grid: Array, pts: Array) -> Array:
         """Bilinear between cell centres (nearest beyond the outer centres)."""

@@ -436,6 +436,8 @@ def test_never_observed_cells_next_to_a_sensed_surface_are_suspected():
     assert model.inflated_clearance_at(beyond, 0.05, 0.1, suspected=True)[0] < 0.05
     assert model.inflated_clearance_at(beyond, 0.05, 0.1)[0] > 0.1
     assert "suspected" in model.to_dict() and len(model.to_dict()["suspected"]) == suspected.sum()
-    assert not seen_wall(0.0).suspected().any()
+    assert model.any_suspected()
+    unsuspecting = seen_wall(0.0)
+    assert not unsuspecting.suspected().any() and not unsuspecting.any_suspected()
     with pytest.raises(ValueError, match="sensed_continuation"):
         WorldModelSettings(sensed_continuation=-0.1)
