@@ -50,6 +50,18 @@ def test_removed_cells_need_a_reset() -> None:
     assert np.all(live.get(occupied) == 2.0)
 
 
+def ray_at(rng: np.random.Generator, targets: np.ndarray, seen_through: bool) -> RangeObservation:
+    """A single ray from within 0.8 m of one of ``targets`` at it: hitting it, or reading
+    0.3 m past it (it is seen through)."""
+    target = targets[int(rng.integers(len(targets)))]
+    origin = target + rng.uniform(-0.8, 0.8, 2)
+    offset = target - origin
+    d = float(np.hypot(*offset)) + (0.3 if seen_through else 0.0)
+    angle = float(np.arctan2(offset[1], offset[0]))
+    at = (float(origin[0]), float(origin[1]))
+    return RangeObservation(at, angle, 0.0, 1.5, d, True, 0.02)
+
+
 def test_world_model_clearance_stays_that_of_its_layers() -> None:
     rng = np.random.default_rng(3)
     model = WorldModel(Bounds(-3, 3, -3, 3))
@@ -60,13 +72,7 @@ def test_world_model_clearance_stays_that_of_its_layers() -> None:
         for _ in range(6):
             # single rays at a few fixed targets: they become occupied; after tick 60 the
             # readings pass through them and they cease to be (the map is rebuilt then)
-            target = targets[int(rng.integers(len(targets)))]
-            origin = target + rng.uniform(-0.8, 0.8, 2)
-            offset = target - origin
-            d = float(np.hypot(*offset)) + (0.0 if tick < 60 else 0.3)  # then seen through
-            angle = float(np.arctan2(offset[1], offset[0]))
-            at = (float(origin[0]), float(origin[1]))
-            readings.append(RangeObservation(at, angle, 0.0, 1.5, d, True, 0.02))
+            readings.append(ray_at(rng, targets, seen_through=tick >= 60))
         model.integrate(readings)
         if tick % 25 == 0:
             model.add_contact((float(rng.uniform(-3, 3)), float(rng.uniform(-3, 3))))
@@ -124,13 +130,7 @@ def test_inflated_clearance_kept_current_equals_a_rebuild(seed: int) -> None:
     for tick in range(90):
         readings = []
         for _ in range(5):
-            target = targets[int(rng.integers(len(targets)))]
-            origin = target + rng.uniform(-0.8, 0.8, 2)
-            offset = target - origin
-            d = float(np.hypot(*offset)) + (0.0 if (tick // 20) % 2 == 0 else 0.3)
-            angle = float(np.arctan2(offset[1], offset[0]))
-            at = (float(origin[0]), float(origin[1]))
-            readings.append(RangeObservation(at, angle, 0.0, 1.5, d, True, 0.02))
+            readings.append(ray_at(rng, targets, seen_through=(tick // 20) % 2 == 1))
         model.integrate(readings)
         if tick % 15 == 3:
             model.add_contact((float(rng.uniform(-2.5, 2.5)), float(rng.uniform(-2.5, 2.5))))
