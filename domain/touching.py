@@ -43,5 +43,5 @@ def touch_allowance(points: Array, slack: Array, margin: float) -> TouchAllowanc
     """The allowance of a resting body whose sample ``points`` ``[N, 2]`` keep ``slack``
     ``[N]`` (clearance less each point's need) against a wanted ``margin``."""
     close = slack < margin
-    relaxed = min(margin, float(np.min(slack, initial=margin)) - DEEPER) if close.any() else margin
+    relaxed = min(margin, float(np.min(slack)) - DEEPER) if close.any() else margin
     return TouchAllowance(margin, relaxed, np.asarray(points, dtype=float)[close])
