@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from domain import occupancy_kernel as kernel
+from domain import occupancy_marking
 from domain.beams import arc_cells, likelihoods, swept_cells
 from domain.grid import Flat, Grid, unique_cells, unique_counts, unique_inverse
 from domain.observation import RangeObservation, range_observations
@@ -105,8 +106,9 @@ class _Updates:
 class SensedLayer:
     """Log-odds occupancy from range readings; ``occupied`` is the thresholded view.
 
-    ``compiled`` picks the numba kernels (``domain.occupancy_kernel``, the default when numba is
-    there) or the numpy path; both give the same layer, value for value.
+    ``compiled`` picks the numba kernels (``domain.occupancy_kernel`` and
+    ``domain.occupancy_marking``, the default when numba is there) or the numpy path; both give
+    the same layer, value for value.
     """
 
     def __init__(
@@ -201,7 +203,7 @@ class SensedLayer:
         self.lowered = cleared
         # The occupancy odds of each arc cell after clearing (numpy's exp, as the numpy path
         # computes it); cells within the noise of known geometry are explained by it.
-        became, ceased = kernel.explain_share_and_mark(
+        became, ceased = occupancy_marking.explain_share_and_mark(
             flat,
             self.occupied.reshape(-1),
             known_clearance.reshape(-1),
