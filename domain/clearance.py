@@ -12,6 +12,9 @@ further than ``cap`` plus half a cell, so ``DistanceMap`` updates only a window 
 - **removed** cells: the cells within reach of them get the transform of the layer over that
   window grown by the reach once more (every occupied cell that can be nearest to one of them
   lies inside it; one further away is beyond ``cap`` either way, where the map saturates).
+  Compiled, a few removed cells in a sparse layer are cheaper still (``_remove_few``): only a
+  cell whose clearance equals that to a removed cell can have lost its nearest one, and only
+  those are measured again, to the occupied cells left within reach.
 """
 
 from __future__ import annotations
@@ -123,6 +126,81 @@ def _add_few(  # pragma: no cover - compiled
             view[i, j] = min(view[i, j], dist)
 
 
+@occupancy_kernel._jit
+def _remove_few(  # pragma: no cover - compiled
+    view: Array,
+    ri: Flat,
+    rj: Flat,
+    occupied: NDArray[np.bool_],
+    oi: int,
+    oj: int,
+    resolution: float,
+    cap: float,
+    budget: int,
+) -> tuple[int, int, int, int]:
+    """``view`` after the cells (``ri``, ``rj``) of it stopped being occupied; ``occupied`` is
+    the layer after, over a window whose cell (0, 0) is ``view``'s (``oi``, ``oj``) and which
+    holds every occupied cell that can be nearest to one of ``view``'s. A cell below ``cap``
+    whose clearance equals that to the nearest removed cell may have lost its nearest cell: it
+    is measured again, to the cells left, as ``_compiled_map`` measures (the mapping from
+    squared distance to clearance is non-decreasing, so any other cell kept its own nearest).
+    Returns the window of ``view`` that changed (empty: none), or ``(-1, 0, 0, 0)`` with
+    ``view`` untouched when that would take more than ``budget`` distance evaluations."""
+    half = 0.5 * resolution
+    nx, ny = view.shape
+    lost_i = np.empty(nx * ny, dtype=np.int64)
+    lost_j = np.empty(nx * ny, dtype=np.int64)
+    n_lost = 0
+    for i in range(nx):
+        for j in range(ny):
+            if view[i, j] >= cap:
+                continue  # saturated: fewer occupied cells cannot bring it nearer
+            d2 = (i - ri[0]) * (i - ri[0]) + (j - rj[0]) * (j - rj[0])
+            for k in range(1, ri.size):
+                d2 = min(d2, (i - ri[k]) * (i - ri[k]) + (j - rj[k]) * (j - rj[k]))
+            if min(max(math.sqrt(float(d2)) * resolution - half, 0.0), cap) == view[i, j]:
+                lost_i[n_lost] = i
+                lost_j[n_lost] = j
+                n_lost += 1
+    if n_lost == 0:
+        return 0, 0, 0, 0
+    mx, my = occupied.shape
+    n_left = 0
+    for a in range(mx):
+        for b in range(my):
+            if occupied[a, b]:
+                n_left += 1
+    if n_lost * n_left > budget:
+        return -1, 0, 0, 0
+    left_i = np.empty(n_left, dtype=np.int64)
+    left_j = np.empty(n_left, dtype=np.int64)
+    n = 0
+    for a in range(mx):
+        for b in range(my):
+            if occupied[a, b]:
+                left_i[n] = a - oi
+                left_j[n] = b - oj
+                n += 1
+    i0, i1, j0, j1 = nx, 0, ny, 0
+    for m in range(n_lost):
+        i, j = lost_i[m], lost_j[m]
+        dist = cap
+        if n_left:
+            d2 = (i - left_i[0]) * (i - left_i[0]) + (j - left_j[0]) * (j - left_j[0])
+            for k in range(1, n_left):
+                d2 = min(d2, (i - left_i[k]) * (i - left_i[k]) + (j - left_j[k]) * (j - left_j[k]))
+            dist = min(max(math.sqrt(float(d2)) * resolution - half, 0.0), cap)
+        if dist != view[i, j]:
+            view[i, j] = dist
+            i0, i1, j0, j1 = min(i0, i), max(i1, i + 1), min(j0, j), max(j1, j + 1)
+    if i0 >= i1:
+        return 0, 0, 0, 0
+    return i0, i1, j0, j1
+
+
+REMOVE_BUDGET = 4  # distance evaluations per cell of the transform ``_remove_few`` saves
+
+
 class DistanceMap:
     """The clearance map of one occupancy layer, updated as cells are added or removed.
 
@@ -179,13 +257,30 @@ class DistanceMap:
         if cells.size == 0:
             return None
         i0, i1, j0, j1 = self.window(cells)
-        if self._map is not None:
-            o0, o1, p0, p1 = self.window(cells, 2 * self._reach)
-            occupied = layers[0][o0:o1, p0:p1].copy()
-            for layer in layers[1:]:
-                occupied |= layer[o0:o1, p0:p1]
-            near = clearance_map(occupied, self.grid.resolution, self.cap)
-            self._map[i0:i1, j0:j1] = near[i0 - o0 : i1 - o0, j0 - p0 : j1 - p0]
+        if self._map is None:
+            return i0, i1, j0, j1
+        o0, o1, p0, p1 = self.window(cells, 2 * self._reach)
+        occupied = layers[0][o0:o1, p0:p1]
+        for layer in layers[1:]:
+            occupied = occupied | layer[o0:o1, p0:p1]
+        if occupancy_kernel.AVAILABLE and cells.size <= FEW_CELLS:
+            i, j = np.divmod(cells, self.grid.ny)
+            budget = REMOVE_BUDGET * occupied.size
+            c0, c1, d0, d1 = _remove_few(
+                self._map[i0:i1, j0:j1],
+                i - i0,
+                j - j0,
+                occupied,
+                i0 - o0,
+                j0 - p0,
+                self.grid.resolution,
+                self.cap,
+                budget,
+            )
+            if c0 >= 0:  # done: the window that changed, if any
+                return (i0 + c0, i0 + c1, j0 + d0, j0 + d1) if c0 < c1 else None
+        near = clearance_map(occupied, self.grid.resolution, self.cap)
+        self._map[i0:i1, j0:j1] = near[i0 - o0 : i1 - o0, j0 - p0 : j1 - p0]
         return i0, i1, j0, j1
 
     def get(self, *layers: NDArray[np.bool_]) -> Array:
