@@ -32,6 +32,16 @@ from sim.robot import Array
 Window = tuple[int, int, int, int]  # cells i0:i1, j0:j1
 
 
+def overlap(a: Window, b: Window) -> bool:
+    """Whether two windows share cells."""
+    return a[0] < b[1] and b[0] < a[1] and a[2] < b[3] and b[2] < a[3]
+
+
+def union(a: Window, b: Window) -> Window:
+    """The smallest window holding both."""
+    return min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3])
+
+
 def clearance_map(occupied: NDArray[np.bool_], resolution: float, cap: float) -> Array:
     """Clearance ``[nx, ny]`` of every cell centre to the occupied cells (``cap`` if none).
 
