@@ -1,7 +1,8 @@
 """The cells the suspected tier keeps clear of, and their clearance, kept current window by window.
 
 With ``suspected``, ``WorldModel.inflated_clearance_at`` counts as contact cells the *marked*
-cells: contacts, suspected surfaces (where a touched one probably goes on) and the sensed
+cells: contacts, suspected surfaces (where a touched one probably goes on: flagged by
+``suspect``, cleared by beams that see them free) and the sensed
 layer's continuation, never-observed cells (log-odds 0) within ``sensed_continuation`` of a
 sensed cell. They change with nearly every version of the model, but a few cells at a time, so
 ``MarkedCells`` marks afresh only the windows where what a cell's status depends on changed
@@ -43,6 +44,12 @@ class MarkedCells:
     def __init__(self, grid: Grid, continuation: float, cap: float) -> None:
         self.grid = grid
         self.continuation = continuation
+        # Where a touched surface probably goes on (a bumper feels a short piece of a wall);
+        # avoided while a way round exists, cleared by beams that see the cells free.
+        self.suspected = np.zeros(grid.shape, dtype=bool)
+        self.suspected_count = 0  # suspected cells (none: no scan, no suspect tier)
+        # cells suspected since the last reading: they may have been seen free before
+        self._newly_suspected: list[Flat] = []
         self.marked = np.zeros(grid.shape, dtype=bool)  # as of the last sync
         self.count = 0  # marked cells
         self.map = DistanceMap(grid, cap)  # clearance to the marked cells
@@ -56,6 +63,37 @@ class MarkedCells:
         self._pending: list[Flat] = []
         self._pending_sensed: list[Flat] = []
         self._reach = -1.0  # the reach used at the last sync (-1: no continuation)
+
+    def suspect(self, cells: Flat, contact: NDArray[np.bool_]) -> bool:
+        """Flag ``cells`` (flat, distinct) as a suspected surface, but for contact cells and
+        those flagged already; whether any was new."""
+        flat = self.suspected.reshape(-1)
+        cells = cells[~contact.reshape(-1)[cells] & ~flat[cells]]
+        if not cells.size:
+            return False
+        flat[cells] = True
+        self.suspected_count += int(cells.size)
+        self._newly_suspected.append(cells)
+        self.flagged(cells)
+        return True
+
+    def seen_free(self, lowered: Flat, log_odds: Array, cleared_at: float) -> bool:
+        """After a reading that lowered the log-odds of ``lowered``: suspected cells whose
+        log-odds are at most ``cleared_at`` are seen free and cleared; whether any was."""
+        newly, self._newly_suspected = self._newly_suspected, []
+        if not self.suspected_count:
+            return False
+        # only cells this reading lowered, or suspected since the last one, can have got there
+        cells = np.concatenate([lowered, *newly])
+        flat = self.suspected.reshape(-1)
+        cells = cells[flat[cells]]
+        free = np.unique(cells[log_odds.reshape(-1)[cells] <= cleared_at])
+        if not free.size:
+            return False
+        flat[free] = False
+        self.suspected_count -= int(free.size)
+        self.flagged(free)
+        return True
 
     def touched(self, cells: Sequence[Flat]) -> None:
         """A reading may have changed the log-odds of ``cells`` (flat, in parts)."""
@@ -77,7 +115,6 @@ class MarkedCells:
     def sync(
         self,
         contact: NDArray[np.bool_],
-        suspected: NDArray[np.bool_],
         sensed_clearance: Array,
         log_odds: Array,
         any_sensed: bool,
@@ -95,9 +132,8 @@ class MarkedCells:
             return []
         added, removed = [], []
         for window in self._dirty:
-            on, off = mark(
-                contact, suspected, sensed_clearance, log_odds, reach, window, self.marked
-            )
+            flags = (contact, self.suspected, sensed_clearance, log_odds)
+            on, off = mark(*flags, reach, window, self.marked)
             added.append(on)
             removed.append(off)
         self._dirty = []

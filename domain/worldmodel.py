@@ -35,7 +35,6 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from domain.clearance import DistanceMap, Window
-from domain.grid import Flat
 from domain.inflated import InflatedGrids
 from domain.interpolate import bilinear
 from domain.known import axis_samples, distance_block, known_capsules_clear
@@ -73,12 +72,6 @@ class WorldModel:
         self._contact = np.zeros(self.grid.shape, dtype=bool)
         self._contact_count = 0
         self._sensed_count = 0  # sensed cells over the threshold
-        # Where a touched surface probably goes on (a bumper feels a short piece of a wall);
-        # avoided while a way round exists, cleared by beams that see the cells free.
-        self._suspected = np.zeros(self.grid.shape, dtype=bool)
-        self._suspected_count = 0  # suspected cells (none: no scan, no suspect tier)
-        # cells suspected since the last reading: they may have been seen free before
-        self._newly_suspected: list[Flat] = []
         # Clearance to each dynamic layer, kept current as cells come and go
         # (``domain.clearance``).
         cap = settings.max_clearance
@@ -99,10 +92,6 @@ class WorldModel:
 
     # --- layers -------------------------------------------------------------------------------
 
-    @property
-    def _suspected_any(self) -> bool:
-        return self._suspected_count > 0
-
     def integrate(self, observations: Iterable[RangeObservation]) -> list[tuple[float, float]]:
         """Update the sensed layer with range readings; return the world centres of the cells
         that became occupied (NaN readings are dropouts and change nothing)."""
@@ -118,21 +107,8 @@ class WorldModel:
         changed = bool(became.size or ceased.size)
         if changed:
             marked.sensed_changed([became, ceased])
-        if self._suspected_count:
-            # A suspected cell is seen free once its log-odds fall to the threshold: only
-            # cells this reading lowered, or suspected since the last one, can have got there.
-            cells = np.concatenate([sensed.lowered, *self._newly_suspected])
-            flat = self._suspected.reshape(-1)
-            cells = cells[flat[cells]]
-            seen_free = np.unique(
-                cells[sensed.log_odds.reshape(-1)[cells] <= self.settings.suspect_cleared]
-            )
-            if seen_free.size:
-                flat[seen_free] = False
-                self._suspected_count -= int(seen_free.size)
-                marked.flagged(seen_free)
-                changed = True
-        self._newly_suspected = []
+        if marked.seen_free(sensed.lowered, sensed.log_odds, self.settings.suspect_cleared):
+            changed = True
         if changed:
             self.version += 1
         if not became.size:
@@ -171,13 +147,7 @@ class WorldModel:
         if pts.size == 0:
             return
         flat, inside = self.grid.locate(pts.reshape(-1, 2))
-        cells = np.unique(flat[inside])
-        cells = cells[~self._contact.reshape(-1)[cells] & ~self._suspected.reshape(-1)[cells]]
-        if cells.size:
-            self._suspected.reshape(-1)[cells] = True
-            self._suspected_count += int(cells.size)
-            self._newly_suspected.append(cells)
-            self._marked.flagged(cells)
+        if self._marked.suspect(np.unique(flat[inside]), self._contact):
             self.version += 1
 
     def suspected(self) -> NDArray[np.bool_]:
@@ -185,12 +155,12 @@ class WorldModel:
         near what the range sensors found (a new array)."""
         # the marked cells but contacts are the suspected ones and the continuation
         marked = self._sync_marked().marked
-        out: NDArray[np.bool_] = self._suspected | (marked & ~self._contact)
+        out: NDArray[np.bool_] = self._marked.suspected | (marked & ~self._contact)
         return out
 
     def any_suspected(self) -> bool:
         """Whether any cell is suspected (without building the layer)."""
-        if self._suspected_any:
+        if self._marked.suspected_count:
             return True
         # marked cells hold every contact cell: any more are suspected (the continuation)
         return self._sync_marked().count > self._contact_count
@@ -297,8 +267,8 @@ class WorldModel:
         if self._marked_version != self.version:
             self._marked_version = self.version
             sensed = self._sensed_map.get(self._sensed.occupied)
-            args = (self._contact, self._suspected, sensed, self._sensed.log_odds)
-            for window in marked.sync(*args, any_sensed=self._sensed_count > 0):
+            args = (self._contact, sensed, self._sensed.log_odds, self._sensed_count > 0)
+            for window in marked.sync(*args):
                 self._grids.changed(window, suspected_only=True)
         return marked
 

@@ -41,7 +41,7 @@ def fresh(model: WorldModel, inflation: float, grow: float) -> np.ndarray:
     continuation = (sensed_map <= model.settings.sensed_continuation) & (model.log_odds == 0.0)
     if not model.sensed_occupied().any():
         continuation[:] = False
-    marked = model.contact_occupied() | model._suspected | continuation
+    marked = model.contact_occupied() | model._marked.suspected | continuation
     sensed = np.maximum(sensed_map - inflation, 0.0)
     near = np.maximum(clearance_map(marked, res, cap) - grow, 0.0)
     return np.minimum(model._static, np.minimum(sensed, near))
