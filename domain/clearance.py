@@ -12,9 +12,10 @@ further than ``cap`` plus half a cell, so ``DistanceMap`` updates only a window 
 - **removed** cells: the cells within reach of them get the transform of the layer over that
   window grown by the reach once more (every occupied cell that can be nearest to one of them
   lies inside it; one further away is beyond ``cap`` either way, where the map saturates).
-  Compiled, a few removed cells in a sparse layer are cheaper still (``_remove_few``): only a
-  cell whose clearance equals that to a removed cell can have lost its nearest one, and only
-  those are measured again, to the occupied cells left within reach.
+  Compiled, a few removed cells are cheaper still: only a cell whose clearance equals that to a
+  removed cell can have lost its nearest one (``_lost``); only those are measured again, to the
+  occupied cells left within reach (``_remeasure``), or, when that would take longer, by the
+  transform over their own window grown by the reach.
 """
 
 from __future__ import annotations
@@ -137,30 +138,18 @@ def _add_few(  # pragma: no cover - compiled
 
 
 @occupancy_kernel._jit
-def _remove_few(  # pragma: no cover - compiled
-    view: Array,
-    ri: Flat,
-    rj: Flat,
-    occupied: NDArray[np.bool_],
-    oi: int,
-    oj: int,
-    resolution: float,
-    cap: float,
-    budget: int,
-) -> tuple[int, int, int, int]:
-    """``view`` after the cells (``ri``, ``rj``) of it stopped being occupied; ``occupied`` is
-    the layer after, over a window whose cell (0, 0) is ``view``'s (``oi``, ``oj``) and which
-    holds every occupied cell that can be nearest to one of ``view``'s. A cell below ``cap``
-    whose clearance equals that to the nearest removed cell may have lost its nearest cell: it
-    is measured again, to the cells left, as ``_compiled_map`` measures (the mapping from
-    squared distance to clearance is non-decreasing, so any other cell kept its own nearest).
-    Returns the window of ``view`` that changed (empty: none), or ``(-1, 0, 0, 0)`` with
-    ``view`` untouched when that would take more than ``budget`` distance evaluations."""
+def _lost(  # pragma: no cover - compiled
+    view: Array, ri: Flat, rj: Flat, resolution: float, cap: float
+) -> tuple[Flat, Flat]:
+    """The cells of ``view`` that may have lost their nearest occupied cell when the cells
+    (``ri``, ``rj``) of it stopped being occupied: those below ``cap`` whose clearance equals
+    that to the nearest removed cell, measured as ``_compiled_map`` measures (the mapping from
+    squared distance to clearance is non-decreasing, so any other cell kept its own nearest)."""
     half = 0.5 * resolution
     nx, ny = view.shape
     lost_i = np.empty(nx * ny, dtype=np.int64)
     lost_j = np.empty(nx * ny, dtype=np.int64)
-    n_lost = 0
+    n = 0
     for i in range(nx):
         for j in range(ny):
             if view[i, j] >= cap:
@@ -169,31 +158,42 @@ def _remove_few(  # pragma: no cover - compiled
             for k in range(1, ri.size):
                 d2 = min(d2, (i - ri[k]) * (i - ri[k]) + (j - rj[k]) * (j - rj[k]))
             if min(max(math.sqrt(float(d2)) * resolution - half, 0.0), cap) == view[i, j]:
-                lost_i[n_lost] = i
-                lost_j[n_lost] = j
-                n_lost += 1
-    if n_lost == 0:
-        return 0, 0, 0, 0
+                lost_i[n] = i
+                lost_j[n] = j
+                n += 1
+    return lost_i[:n], lost_j[:n]
+
+
+@occupancy_kernel._jit
+def _remeasure(  # pragma: no cover - compiled
+    view: Array,
+    li: Flat,
+    lj: Flat,
+    occupied: NDArray[np.bool_],
+    oi: int,
+    oj: int,
+    resolution: float,
+    cap: float,
+) -> tuple[int, int, int, int]:
+    """The cells (``li``, ``lj``) of ``view`` measured again, as ``_compiled_map`` measures, to
+    the occupied cells of ``occupied``: a window whose cell (0, 0) is ``view``'s (``oi``,
+    ``oj``) and which holds every occupied cell that can be nearest to one of them. Returns the
+    window of ``view`` that changed (empty: none)."""
+    half = 0.5 * resolution
     mx, my = occupied.shape
+    left_i = np.empty(mx * my, dtype=np.int64)
+    left_j = np.empty(mx * my, dtype=np.int64)
     n_left = 0
     for a in range(mx):
         for b in range(my):
             if occupied[a, b]:
+                left_i[n_left] = a - oi
+                left_j[n_left] = b - oj
                 n_left += 1
-    if n_lost * n_left > budget:
-        return -1, 0, 0, 0
-    left_i = np.empty(n_left, dtype=np.int64)
-    left_j = np.empty(n_left, dtype=np.int64)
-    n = 0
-    for a in range(mx):
-        for b in range(my):
-            if occupied[a, b]:
-                left_i[n] = a - oi
-                left_j[n] = b - oj
-                n += 1
+    nx, ny = view.shape
     i0, i1, j0, j1 = nx, 0, ny, 0
-    for m in range(n_lost):
-        i, j = lost_i[m], lost_j[m]
+    for m in range(li.size):
+        i, j = li[m], lj[m]
         dist = cap
         if n_left:
             d2 = (i - left_i[0]) * (i - left_i[0]) + (j - left_j[0]) * (j - left_j[0])
@@ -208,7 +208,8 @@ def _remove_few(  # pragma: no cover - compiled
     return i0, i1, j0, j1
 
 
-REMOVE_BUDGET = 4  # distance evaluations per cell of the transform ``_remove_few`` saves
+REMOVE_FEW = 24  # removed cells looked for one by one (beyond: a transform of their window)
+REMOVE_BUDGET = 4  # distance evaluations per cell of the transform ``_remeasure`` saves
 
 
 class DistanceMap:
@@ -273,22 +274,27 @@ class DistanceMap:
         occupied = layers[0][o0:o1, p0:p1]
         for layer in layers[1:]:
             occupied = occupied | layer[o0:o1, p0:p1]
-        if occupancy_kernel.AVAILABLE and cells.size <= FEW_CELLS:
+        if occupancy_kernel.AVAILABLE and cells.size <= REMOVE_FEW:
+            # only the cells that may have lost their nearest one are measured again
+            view = self._map[i0:i1, j0:j1]
             i, j = np.divmod(cells, self.grid.ny)
-            budget = REMOVE_BUDGET * occupied.size
-            c0, c1, d0, d1 = _remove_few(
-                self._map[i0:i1, j0:j1],
-                i - i0,
-                j - j0,
-                occupied,
-                i0 - o0,
-                j0 - p0,
-                self.grid.resolution,
-                self.cap,
-                budget,
-            )
-            if c0 >= 0:  # done: the window that changed, if any
+            li, lj = _lost(view, i - i0, j - j0, self.grid.resolution, self.cap)
+            if li.size == 0:
+                return None
+            if li.size * np.count_nonzero(occupied) <= REMOVE_BUDGET * occupied.size:
+                args = (occupied, i0 - o0, j0 - p0, self.grid.resolution, self.cap)
+                c0, c1, d0, d1 = _remeasure(view, li, lj, *args)
                 return (i0 + c0, i0 + c1, j0 + d0, j0 + d1) if c0 < c1 else None
+            # many: the transform over their window (grown by the reach, inside the outer one)
+            i0, i1 = i0 + int(li.min()), i0 + int(li.max()) + 1
+            j0, j1 = j0 + int(lj.min()), j0 + int(lj.max()) + 1
+            r = self._reach
+            a0, a1 = max(i0 - r, o0), min(i1 + r, o1)
+            b0, b1 = max(j0 - r, p0), min(j1 + r, p1)
+            occupied, (o0, o1, p0, p1) = (
+                occupied[a0 - o0 : a1 - o0, b0 - p0 : b1 - p0],
+                (a0, a1, b0, b1),
+            )
         near = clearance_map(occupied, self.grid.resolution, self.cap)
         self._map[i0:i1, j0:j1] = near[i0 - o0 : i1 - o0, j0 - p0 : j1 - p0]
         return i0, i1, j0, j1
