@@ -208,6 +208,18 @@ def _remeasure(  # pragma: no cover - compiled
     return i0, i1, j0, j1
 
 
+@occupancy_kernel._jit
+def _extent(cells: Flat, ny: int) -> tuple[int, int, int, int]:  # pragma: no cover - compiled
+    """The smallest and largest row and column of flat ``cells`` (at least one)."""
+    lo_i, lo_j = cells[0] // ny, cells[0] % ny
+    hi_i, hi_j = lo_i, lo_j
+    for c in cells:
+        i, j = c // ny, c % ny
+        lo_i, hi_i = min(lo_i, i), max(hi_i, i)
+        lo_j, hi_j = min(lo_j, j), max(hi_j, j)
+    return lo_i, hi_i, lo_j, hi_j
+
+
 REMOVE_FEW = 24  # removed cells looked for one by one (beyond: a transform of their window)
 REMOVE_BUDGET = 4  # distance evaluations per cell of the transform ``_remeasure`` saves
 
@@ -238,9 +250,13 @@ class DistanceMap:
     def window(self, cells: Flat, grow: int | None = None) -> Window:
         """The cells within ``grow`` (default: the reach) of flat ``cells``' bounding box."""
         r = self._reach if grow is None else grow
-        i, j = np.divmod(cells, self.grid.ny)
-        i0, i1 = max(int(i.min()) - r, 0), min(int(i.max()) + r + 1, self.grid.nx)
-        j0, j1 = max(int(j.min()) - r, 0), min(int(j.max()) + r + 1, self.grid.ny)
+        if occupancy_kernel.AVAILABLE:
+            lo_i, hi_i, lo_j, hi_j = _extent(cells, self.grid.ny)
+        else:
+            i, j = np.divmod(cells, self.grid.ny)
+            lo_i, hi_i, lo_j, hi_j = int(i.min()), int(i.max()), int(j.min()), int(j.max())
+        i0, i1 = max(lo_i - r, 0), min(hi_i + r + 1, self.grid.nx)
+        j0, j1 = max(lo_j - r, 0), min(hi_j + r + 1, self.grid.ny)
         return i0, i1, j0, j1
 
     def add(self, occupied: NDArray[np.bool_], cells: Flat) -> Window | None:

@@ -231,7 +231,8 @@ class NavigationStrategy:
             return None
         self._checked = now
         first = self.index + (1 if self.running is not None else 0)
-        clearance = self.clearance
+        # the next moves' sweeps, checked in one clearance lookup (the first blocked one counts)
+        moves, points, needs = [], [], []
         for n, action in enumerate(plan.actions[first : first + LOOKAHEAD], start=first):
             if action.name != "move" or action.source is None or action.motion is None:
                 continue
@@ -243,15 +244,18 @@ class NavigationStrategy:
             m = action.motion
             lo = int(seg[m])
             hi = int(seg[m + 1]) if m + 1 < len(seg) else len(table.points[k])
-            ok = (
-                clearance(centre + table.points[k][lo:hi])
-                >= table.needs[k][lo:hi] + self.settings.margin
-            )
-            if not bool(np.all(ok)):
-                return PathBlocked(
-                    action.pddl, (round(float(centre[0]), 3), round(float(centre[1]), 3))
-                )
-        return None
+            moves.append((action, centre, hi - lo))
+            points.append(centre + table.points[k][lo:hi])
+            needs.append(table.needs[k][lo:hi])
+        if not moves:
+            return None
+        ok = self.clearance(np.concatenate(points)) >= np.concatenate(needs) + self.settings.margin
+        blocked = np.flatnonzero(~ok)
+        if not blocked.size:
+            return None
+        ends = np.cumsum([size for _, _, size in moves])
+        action, centre, _ = moves[int(np.searchsorted(ends, blocked[0], side="right"))]
+        return PathBlocked(action.pddl, (round(float(centre[0]), 3), round(float(centre[1]), 3)))
 
     def command(self, situation: Situation) -> Command | Trigger | None:
         plan, table = self.plan, self.table
