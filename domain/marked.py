@@ -30,7 +30,7 @@ from numpy.typing import NDArray
 
 from domain import occupancy_kernel
 from domain.clearance import DistanceMap, Window, overlap, union
-from domain.grid import Flat, Grid
+from domain.grid import Flat, Grid, unique_cells
 from sim.robot import Array
 
 MAX_DIRTY_WINDOWS = 32  # windows kept apart before they are merged into one
@@ -84,12 +84,13 @@ class MarkedCells:
         if not self.suspected_count:
             return False
         # only cells this reading lowered, or suspected since the last one, can have got there
-        cells = np.concatenate([lowered, *newly])
+        cells = np.concatenate([lowered, *newly]) if newly else lowered
         flat = self.suspected.reshape(-1)
         cells = cells[flat[cells]]
-        free = np.unique(cells[log_odds.reshape(-1)[cells] <= cleared_at])
-        if not free.size:
+        free = cells[log_odds.reshape(-1)[cells] <= cleared_at]
+        if not free.size:  # as a rule: then no sorting
             return False
+        free = unique_cells(free)
         flat[free] = False
         self.suspected_count -= int(free.size)
         self.flagged(free)

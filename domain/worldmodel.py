@@ -35,6 +35,7 @@ from numpy.typing import NDArray
 from scipy import ndimage
 
 from domain.clearance import DistanceMap, Window
+from domain.grid import unique_cells
 from domain.inflated import InflatedGrids
 from domain.interpolate import bilinear
 from domain.known import axis_samples, distance_block, known_capsules_clear
@@ -147,7 +148,7 @@ class WorldModel:
         if pts.size == 0:
             return
         flat, inside = self.grid.locate(pts.reshape(-1, 2))
-        if self._marked.suspect(np.unique(flat[inside]), self._contact):
+        if self._marked.suspect(unique_cells(flat[inside]), self._contact):
             self.version += 1
 
     def suspected(self) -> NDArray[np.bool_]:
