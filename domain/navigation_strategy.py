@@ -73,6 +73,8 @@ class NavigationStrategy:
         self.running: Running | None = None
         self.arrive_tries = 0
         self._checked: tuple[int, int] = (-1, -1)  # (world version, plan index) last checked
+        # the next moves' sweep points and needs, gathered once per (plan, table, first move)
+        self._sweeps: tuple[Any, ...] = (None, None, (-1, 0), [], np.zeros((0, 2)), np.zeros(0))
         self.clearance: Any = None  # what plans are checked against (sensed cells inflated)
         self.backoff: list[Primitive] = []
         self.recoveries = 0
@@ -231,8 +233,28 @@ class NavigationStrategy:
             return None
         self._checked = now
         first = self.index + (1 if self.running is not None else 0)
-        # the next moves' sweeps, checked in one clearance lookup (the first blocked one counts)
+        # the same objects (not equal ones), the same list of actions, as long, from the same step
+        known, steps = self._sweeps, (first, len(plan.actions))
+        if known[0] is not plan.actions or known[1] is not table or known[2] != steps:
+            self._sweeps = (plan.actions, table, steps, *self._gather(plan, table, first))
+        moves, points, needs = self._sweeps[3:]
+        if not moves:
+            return None
+        # the next moves' sweeps in one clearance lookup (the first blocked one counts)
+        blocked = np.flatnonzero(~(self.clearance(points) >= needs))
+        if not blocked.size:
+            return None
+        action, centre = moves[int(np.searchsorted([m[2] for m in moves], blocked[0], "right"))][:2]
+        return PathBlocked(action.pddl, (round(float(centre[0]), 3), round(float(centre[1]), 3)))
+
+    def _gather(
+        self, plan: LatticePlan, table: MotionTable, first: int
+    ) -> tuple[list[tuple[LatticeAction, np.ndarray, int]], np.ndarray, np.ndarray]:
+        """The moves of the ``LOOKAHEAD`` plan steps from ``first`` the guard checks (each
+        with its start centre and where its points end), their swept points and the clearance
+        each needs (with the margin)."""
         moves, points, needs = [], [], []
+        end = 0
         for n, action in enumerate(plan.actions[first : first + LOOKAHEAD], start=first):
             if action.name != "move" or action.source is None or action.motion is None:
                 continue
@@ -244,18 +266,13 @@ class NavigationStrategy:
             m = action.motion
             lo = int(seg[m])
             hi = int(seg[m + 1]) if m + 1 < len(seg) else len(table.points[k])
-            moves.append((action, centre, hi - lo))
+            end += hi - lo
+            moves.append((action, centre, end))
             points.append(centre + table.points[k][lo:hi])
-            needs.append(table.needs[k][lo:hi])
+            needs.append(table.needs[k][lo:hi] + self.settings.margin)
         if not moves:
-            return None
-        ok = self.clearance(np.concatenate(points)) >= np.concatenate(needs) + self.settings.margin
-        blocked = np.flatnonzero(~ok)
-        if not blocked.size:
-            return None
-        ends = np.cumsum([size for _, _, size in moves])
-        action, centre, _ = moves[int(np.searchsorted(ends, blocked[0], side="right"))]
-        return PathBlocked(action.pddl, (round(float(centre[0]), 3), round(float(centre[1]), 3)))
+            return [], np.zeros((0, 2)), np.zeros(0)
+        return moves, np.concatenate(points), np.concatenate(needs)
 
     def command(self, situation: Situation) -> Command | Trigger | None:
         plan, table = self.plan, self.table
