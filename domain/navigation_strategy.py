@@ -249,30 +249,35 @@ class NavigationStrategy:
 
     def _gather(
         self, plan: LatticePlan, table: MotionTable, first: int
-    ) -> tuple[list[tuple[LatticeAction, np.ndarray, int]], np.ndarray, np.ndarray]:
+    ) -> tuple[list[tuple[LatticeAction, tuple[float, float], int]], np.ndarray, np.ndarray]:
         """The moves of the ``LOOKAHEAD`` plan steps from ``first`` the guard checks (each
         with its start centre and where its points end), their swept points and the clearance
         each needs (with the margin)."""
-        moves, points, needs = [], [], []
-        end = 0
+        moves, centres, points, needs = [], [], [], []
+        grid, end = self.planner.grid, 0
+        r, x0, y0 = grid.settings.resolution, grid.bounds.xmin, grid.bounds.ymin
         for n, action in enumerate(plan.actions[first : first + LOOKAHEAD], start=first):
             if action.name != "move" or action.source is None or action.motion is None:
                 continue
             if n == 0:
                 continue  # out of the start: planned with the start's own (relaxed) margin
             i, j, k = action.source
-            centre = self.planner.grid.centre(i, j)
+            centre = (x0 + (i + 0.5) * r, y0 + (j + 0.5) * r)  # as grid.centre(i, j)
             seg = table.segments[k]
             m = action.motion
             lo = int(seg[m])
             hi = int(seg[m + 1]) if m + 1 < len(seg) else len(table.points[k])
             end += hi - lo
             moves.append((action, centre, end))
-            points.append(centre + table.points[k][lo:hi])
-            needs.append(table.needs[k][lo:hi] + self.settings.margin)
+            centres.append(centre)
+            points.append(table.points[k][lo:hi])
+            needs.append(table.needs[k][lo:hi])
         if not moves:
             return [], np.zeros((0, 2)), np.zeros(0)
-        return moves, np.concatenate(points), np.concatenate(needs)
+        sizes = [p.shape[0] for p in points]
+        # each move's points offset by its centre, element by element as centre + points
+        swept = np.concatenate(points) + np.repeat(np.array(centres), sizes, axis=0)
+        return moves, swept, np.concatenate(needs) + self.settings.margin
 
     def command(self, situation: Situation) -> Command | Trigger | None:
         plan, table = self.plan, self.table
