@@ -2,9 +2,9 @@
 
 With ``suspected``, ``WorldModel.inflated_clearance_at`` counts as contact cells the *marked*
 cells: contacts, suspected surfaces (where a touched one probably goes on: flagged by
-``suspect``, cleared by beams that see them free) and the sensed
-layer's continuation, never-observed cells (log-odds 0) within ``sensed_continuation`` of a
-sensed cell. They change with nearly every version of the model, but a few cells at a time, so
+``suspect``, cleared by beams that see them free) and the sensed layer's continuation,
+never-observed cells (log-odds 0) within ``sensed_continuation`` of a sensed cell. They
+change with nearly every version of the model, but a few cells at a time, so
 ``MarkedCells`` marks afresh only the windows where what a cell's status depends on changed
 since it last did, and hands the cells whose status changed to a ``DistanceMap``
 (``domain.clearance``), which updates the clearance around them. Where a status may change:
