@@ -143,11 +143,14 @@ class NavigationStrategy:
         first = plan.actions[0] if plan.actions else None
         reshaped = s.shape if first is not None and first.name == "reshape" else None
         lattice_shape = table.shape if table is not None else s.shape
-        exported = plan.problem(lattice_shape, reshaped)
-        problem = exported.text() if exported is not None else ""
         self._checked = (s.world.version, 0)
+
+        def export() -> str:  # the plan's graph is not changed after this replan
+            exported = plan.problem(lattice_shape, reshaped)
+            return exported.text() if exported is not None else ""
+
         return Replanned(
-            plan.solved, plan.reason, record, lattice_domain_text(), problem, plan.pddl_plan
+            plan.solved, plan.reason, record, lattice_domain_text(), export, plan.pddl_plan
         )
 
     def _plan(
