@@ -160,10 +160,9 @@ def _flood(  # pragma: no cover - compiled
                 continue
             if flags & other:
                 return True
-            if not flags & FREE:
-                if not _free(clear, shifts, thresholds, counts, c, a, b):
-                    seen[m] = BLOCKED
-                    continue
+            if not flags & FREE and not _free(clear, shifts, thresholds, counts, c, a, b):
+                seen[m] = BLOCKED
+                continue
             seen[m] = flags | FREE | mine
             stacks[side] = _push(stacks[side], tops, side, m)
     return False
