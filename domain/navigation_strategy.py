@@ -23,6 +23,7 @@ from domain.lattice import LatticeSettings, MotionTable, compose, motion_table, 
 from domain.lattice_pddl import lattice_domain_text
 from domain.lattice_plan import LatticeAction, LatticePlan
 from domain.lattice_planner import LatticePlanner
+from domain.lattice_repair import leg_reach
 from domain.lattice_task import LatticeTask, primitive_name
 from domain.pyperplan_adapter import CancelFlag
 from domain.reshape import reshape_clear, reshape_duration
@@ -145,11 +146,14 @@ class NavigationStrategy:
         first = plan.actions[0] if plan.actions else None
         reshaped = s.shape if first is not None and first.name == "reshape" else None
         lattice_shape = table.shape if table is not None else s.shape
-        exported = plan.problem(lattice_shape, reshaped)
-        problem = exported.text() if exported is not None else ""
         self._checked = (s.world.version, 0)
+
+        def export() -> str:  # the plan's graph is not changed after this replan
+            exported = plan.problem(lattice_shape, reshaped)
+            return exported.text() if exported is not None else ""
+
         return Replanned(
-            plan.solved, plan.reason, record, lattice_domain_text(), problem, plan.pddl_plan
+            plan.solved, plan.reason, record, lattice_domain_text(), export, plan.pddl_plan
         )
 
     def _plan(
@@ -207,6 +211,8 @@ class NavigationStrategy:
                 pose, table.joints, joints, clearance, self.settings.margin
             ):
                 continue
+            if not self._may_reach(other, s, pose):
+                continue  # not even the loosest tier lets this body through: skip its searches
             plan = self._plan(other, s, pose, cancel)
             if not plan.solved or plan.partial:
                 continue  # change shape only for a way all the way there
@@ -222,6 +228,17 @@ class NavigationStrategy:
             self.plan = plan
             return other
         return None
+
+    def _may_reach(self, table: MotionTable, s: Situation, pose: Any) -> bool:
+        """``False`` when no plan of any tier can take this shape's body to every goal: the
+        loosest tier's clearance is at least every other's everywhere, and its free resting
+        configurations do not connect the start with some goal (``lattice_reach``)."""
+        goals = tuple((g.x, g.y) for g in s.goals)
+        loosest = tiers(s.world.any_suspected())[-1]
+        clearance = tier_clearance(s.world, loosest, goals)
+        reach = self.planner.reachability(table, clearance, (s.world.version, loosest, goals))
+        start = self.planner.key_of(table, pose)
+        return all(reach.reaches(start, (g.x, g.y), leg_reach(g)) for g in s.goals)
 
     def broken(self, situation: Situation) -> Trigger | None:
         """Re-check the next moves' swept footprints whenever the world model changed."""
