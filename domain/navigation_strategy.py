@@ -25,6 +25,7 @@ from domain.lattice_plan import LatticeAction, LatticePlan
 from domain.lattice_planner import LatticePlanner
 from domain.lattice_repair import leg_reach
 from domain.lattice_task import LatticeTask, primitive_name
+from domain.plan_guard import Lookahead
 from domain.pyperplan_adapter import CancelFlag
 from domain.reshape import reshape_clear, reshape_duration
 from domain.strategy import Command, Replanned, Situation
@@ -74,8 +75,7 @@ class NavigationStrategy:
         self.running: Running | None = None
         self.arrive_tries = 0
         self._checked: tuple[int, int] = (-1, -1)  # (world version, plan index) last checked
-        # the next moves' sweep points and needs, gathered once per (plan, table, first move)
-        self._sweeps: tuple[Any, ...] = (None, None, (-1, 0), [], np.zeros((0, 2)), np.zeros(0))
+        self._lookahead = Lookahead(LOOKAHEAD)  # the next moves' sweeps the guard checks
         self.clearance: Any = None  # what plans are checked against (sensed cells inflated)
         self.backoff: list[Primitive] = []
         self.recoveries = 0
@@ -250,51 +250,13 @@ class NavigationStrategy:
             return None
         self._checked = now
         first = self.index + (1 if self.running is not None else 0)
-        # the same objects (not equal ones), the same list of actions, as long, from the same step
-        known, steps = self._sweeps, (first, len(plan.actions))
-        if known[0] is not plan.actions or known[1] is not table or known[2] != steps:
-            self._sweeps = (plan.actions, table, steps, *self._gather(plan, table, first))
-        moves, points, needs = self._sweeps[3:]
-        if not moves:
+        blocked = self._lookahead.first_blocked(
+            plan, table, first, self.planner.grid, self.settings.margin, self.clearance
+        )
+        if blocked is None:
             return None
-        # the next moves' sweeps in one clearance lookup (the first blocked one counts)
-        blocked = np.flatnonzero(~(self.clearance(points) >= needs))
-        if not blocked.size:
-            return None
-        action, centre = moves[int(np.searchsorted([m[2] for m in moves], blocked[0], "right"))][:2]
-        return PathBlocked(action.pddl, (round(float(centre[0]), 3), round(float(centre[1]), 3)))
-
-    def _gather(
-        self, plan: LatticePlan, table: MotionTable, first: int
-    ) -> tuple[list[tuple[LatticeAction, tuple[float, float], int]], np.ndarray, np.ndarray]:
-        """The moves of the ``LOOKAHEAD`` plan steps from ``first`` the guard checks (each
-        with its start centre and where its points end), their swept points and the clearance
-        each needs (with the margin)."""
-        moves, centres, points, needs = [], [], [], []
-        grid, end = self.planner.grid, 0
-        r, x0, y0 = grid.settings.resolution, grid.bounds.xmin, grid.bounds.ymin
-        for n, action in enumerate(plan.actions[first : first + LOOKAHEAD], start=first):
-            if action.name != "move" or action.source is None or action.motion is None:
-                continue
-            if n == 0:
-                continue  # out of the start: planned with the start's own (relaxed) margin
-            i, j, k = action.source
-            centre = (x0 + (i + 0.5) * r, y0 + (j + 0.5) * r)  # as grid.centre(i, j)
-            seg = table.segments[k]
-            m = action.motion
-            lo = int(seg[m])
-            hi = int(seg[m + 1]) if m + 1 < len(seg) else len(table.points[k])
-            end += hi - lo
-            moves.append((action, centre, end))
-            centres.append(centre)
-            points.append(table.points[k][lo:hi])
-            needs.append(table.needs[k][lo:hi])
-        if not moves:
-            return [], np.zeros((0, 2)), np.zeros(0)
-        sizes = [p.shape[0] for p in points]
-        # each move's points offset by its centre, element by element as centre + points
-        swept = np.concatenate(points) + np.repeat(np.array(centres), sizes, axis=0)
-        return moves, swept, np.concatenate(needs) + self.settings.margin
+        action, (x, y) = blocked
+        return PathBlocked(action.pddl, (round(x, 3), round(y, 3)))
 
     def command(self, situation: Situation) -> Command | Trigger | None:
         plan, table = self.plan, self.table
