@@ -34,7 +34,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from domain.clearance import DistanceMap, Window
+from domain.clearance import DistanceMap
 from domain.grid import unique_cells
 from domain.inflated import InflatedGrids
 from domain.interpolate import bilinear
@@ -100,8 +100,8 @@ class WorldModel:
         became, ceased = sensed.integrate(observations, self._static)
         # cells that ceased first (their window transformed afresh, the new cells included),
         # then the new cells' own window
-        self._changed(self._sensed_map.remove((sensed.occupied,), ceased))
-        self._changed(self._sensed_map.add(sensed.occupied, became))
+        self._grids.changed(self._sensed_map.remove((sensed.occupied,), ceased))
+        self._grids.changed(self._sensed_map.add(sensed.occupied, became))
         self._sensed_count += int(became.size) - int(ceased.size)
         marked = self._marked
         marked.touched(sensed.touched)
@@ -137,7 +137,7 @@ class WorldModel:
             ii, jj = np.nonzero(new)
             cells = (ii + i0) * grid.ny + (jj + j0)
             self._contact_count += int(cells.size)
-            self._changed(self._contact_map.add(self._contact, cells))
+            self._grids.changed(self._contact_map.add(self._contact, cells))
             self._marked.flagged(cells)
             self.version += 1
 
@@ -177,7 +177,7 @@ class WorldModel:
         if np.any(dist < window):
             np.minimum(window, dist, out=window)
             np.minimum(self._static[i0:i1, j0:j1], dist, out=self._static[i0:i1, j0:j1])
-            self._changed((i0, i1, j0, j1))
+            self._grids.changed((i0, i1, j0, j1))
             self.version += 1
 
     def remove_known(self, obstacle: Obstacle) -> bool:
@@ -254,11 +254,6 @@ class WorldModel:
         key = (inflation, grow_contact, suspected)
         grid = self._grids.get(key, self._static, sensed, near)
         return bilinear(grid, self.grid, np.asarray(points, dtype=float), self.bounds)
-
-    def _changed(self, window: Window | None) -> None:
-        """The layers changed within ``window`` (``None``: nowhere): the inflated grids are
-        brought up to date there when next read."""
-        self._grids.changed(window)
 
     def _sync_marked(self) -> MarkedCells:
         """The suspected tier's marked cells, marked afresh once per version of the model
