@@ -78,11 +78,15 @@ def free_configurations(
     return free
 
 
+FLOOD_BUDGET = 20_000  # configurations a flood meets before the labelling answers instead
+
+
 class Reachability:
     """Answers "can the body get from this start to that goal at all?" for one lattice's free
-    configurations: by the compiled flood fill of the start's component (stopping at the
-    first configuration on the goal) when kernels are available, else by labelling every
-    component once (``scipy.ndimage.label``) and comparing."""
+    configurations: by the compiled flood fill from both ends (stopping when they meet) when
+    kernels are available and it answers within ``flood_budget`` configurations, else by
+    labelling every component once (``scipy.ndimage.label``, kept for the next question) and
+    comparing."""
 
     def __init__(
         self, grid: LatticeGrid, table: MotionTable, at_centres: Array, margin: float
@@ -92,6 +96,9 @@ class Reachability:
         self.clear = np.ascontiguousarray(at_centres.reshape(grid.nx, grid.ny), dtype=float)
         self.shifts, self.thresholds, self.counts = body_rows(grid, table, margin)
         self._labels: tuple[NDArray[np.bool_], NDArray[np.int32], NDArray[np.int32]] | None = None
+        # Configurations the flood may meet before it leaves the question to the labelling
+        # (two large components: a flood costs more per configuration than the labelling).
+        self.flood_budget = FLOOD_BUDGET
 
     def reaches(
         self, start: Key, goal: tuple[float, float], reach: float, compiled: bool | None = None
@@ -107,7 +114,7 @@ class Reachability:
         limit = reach + grid.settings.resolution * math.sqrt(0.5)
         if compiled if compiled is not None else reach_kernel.AVAILABLE:
             centres = grid.centres.reshape(grid.nx, grid.ny, 2)
-            return reach_kernel.flood_reaches(
+            found = reach_kernel.flood_reaches(
                 self.clear,
                 self.shifts,
                 self.thresholds,
@@ -118,7 +125,10 @@ class Reachability:
                 goal,
                 limit,
                 starts,
+                self.flood_budget,
             )
+            if found is not None:
+                return found
         return self._labelled_reaches(starts, goal, limit)
 
     def _labelled_reaches(
@@ -129,10 +139,15 @@ class Reachability:
         bins, cells = np.divmod(starts, grid.nx * grid.ny)
         mine = np.unique(component[labels[bins, *np.divmod(cells, grid.ny)]])
         centres = grid.centres.reshape(grid.nx, grid.ny, 2)
+        xs, ys = centres[:, 0, 0], centres[0, :, 1]
         for k, (hx, hy) in enumerate(self.table.heads):
-            near = np.hypot(centres[..., 0] + hx - goal[0], centres[..., 1] + hy - goal[1])
-            mask = (near <= limit) & free[k]
-            if np.any(np.isin(component[labels[k][mask]], mine)):
+            # Only the cells round the goal (less the head's offset) can hold the head on it.
+            i0, i1 = np.searchsorted(xs, [goal[0] - hx - limit, goal[0] - hx + limit])
+            j0, j1 = np.searchsorted(ys, [goal[1] - hy - limit, goal[1] - hy + limit])
+            box = (slice(max(0, i0 - 1), i1 + 1), slice(max(0, j0 - 1), j1 + 1))
+            near = np.hypot(centres[*box, 0] + hx - goal[0], centres[*box, 1] + hy - goal[1])
+            mask = (near <= limit) & free[k][box]
+            if np.any(np.isin(component[labels[k][box][mask]], mine)):
                 return True
         return False
 

@@ -5,16 +5,20 @@ with the head on the goal?
 body point and orientation over the whole grid, then ``scipy.ndimage.label``) and compares the
 start's component with the goal's. A question asks about two components only, so this kernel
 floods from both ends at once (from the start, and from every free configuration with the head
-on the goal), always growing the side that has met fewer, deciding whether a configuration is
-free the first time either side meets it. It stops when the sides meet (reachable) or one side
-runs out (not): the cost is about twice the smaller component, and a goal in a small pen or a
-robot boxed in is decided at once. The same relaxation, the same comparisons value for value
-and the same neighbours (8 cells at one orientation, one orientation step in place, orientation
-wrapping round), so the answer is the labelling's (``tests/domain/test_reach_kernel.py``).
+on the goal), always growing the side that has met fewer, each nearest-first towards the other
+(a heap on the distance to it), deciding whether a configuration is free the first time either
+side meets it. It stops when the sides meet (reachable: after little more than the way
+between) or one side runs out (not: a goal in a small pen or a robot boxed in is decided at
+once). Two large components that do not connect cost a flood more than the labelling, so past
+a budget of configurations it hands the question back. The same relaxation, the same
+comparisons value for value and the same neighbours (8 cells at one orientation, one
+orientation step in place, orientation wrapping round), so the answer is the labelling's
+(``tests/domain/test_reach_kernel.py``).
 """
 
 from __future__ import annotations
 
+import heapq
 import math
 
 import numpy as np
@@ -53,13 +57,16 @@ def flood_reaches(
     goal: tuple[float, float],
     limit: float,
     starts: NDArray[np.int64],
-) -> bool:
+    budget: int,
+) -> bool | None:
     """Whether a free configuration connected to one of ``starts`` (numbers ``(k * nx + i) *
     ny + j``) has its head (cell centre ``xs[i], ys[j]`` + ``heads[k]``) within ``limit`` of
-    ``goal``."""
-    return bool(
-        _flood(clear, shifts, thresholds, counts, heads, xs, ys, goal[0], goal[1], limit, starts)
+    ``goal``; ``None`` when the sides met ``budget`` configurations without an answer (two
+    large components: labelling them all at once is cheaper then)."""
+    found = _flood(
+        clear, shifts, thresholds, counts, heads, xs, ys, goal[0], goal[1], limit, starts, budget
     )
+    return None if found < 0 else bool(found)
 
 
 @_jit
@@ -101,19 +108,24 @@ def _flood(  # pragma: no cover - compiled
     gy: float,
     limit: float,
     starts: NDArray[np.int64],
-) -> bool:
+    budget: int,
+) -> int:
     nx, ny = clear.shape
     K = counts.shape[0]
     plane = nx * ny
     seen = np.zeros(K * plane, dtype=np.uint8)
-    sides = (FROM_START, FROM_GOAL)
-    stacks = [np.empty(1024, dtype=np.int64), np.empty(1024, dtype=np.int64)]
-    tops = np.zeros(2, dtype=np.int64)
-    met = np.zeros(2, dtype=np.int64)  # configurations each side has met
+    cell = starts[0] % plane
+    sx, sy = xs[cell // ny], ys[cell % ny]  # where the goal side heads for
+    from_start = [(0.0, starts[0])]  # (distance to the other side, configuration) heaps
+    from_start.pop()
+    from_goal = [(0.0, starts[0])]
+    from_goal.pop()
     for s in starts:
         if seen[s] == 0:
             seen[s] = FROM_START | FREE
-            stacks[0] = _push(stacks[0], tops, 0, s)
+            k, c = s // plane, s % plane
+            d = math.hypot(xs[c // ny] + heads[k, 0] - gx, ys[c % ny] + heads[k, 1] - gy)
+            heapq.heappush(from_start, (d, s))
     # The other side: every free configuration with the head on the goal.
     for k in range(K):
         i0 = max(0, np.searchsorted(xs, gx - heads[k, 0] - limit) - 1)
@@ -128,56 +140,112 @@ def _flood(  # pragma: no cover - compiled
                     continue
                 m = (k * nx + i) * ny + j
                 if seen[m] & FROM_START:
-                    return True  # the start is on the goal already
+                    return 1  # the start is on the goal already
                 if seen[m] == 0:
                     seen[m] = FROM_GOAL | FREE
-                    stacks[1] = _push(stacks[1], tops, 1, m)
-    # Grow the side that has met fewer configurations until the sides meet (connected) or
-    # one side runs out (its whole component met without the other: not connected).
-    while tops[0] > 0 and tops[1] > 0:
-        side = 0 if met[0] <= met[1] else 1
-        mine, other = sides[side], sides[1 - side]
-        tops[side] -= 1
-        number = stacks[side][tops[side]]
-        met[side] += 1
-        k = number // plane
-        cell = number - k * plane
-        i = cell // ny
-        j = cell - i * ny
-        for step in range(10):  # 8 cells around at this bin, then one bin either way
-            if step < 8:
-                di = (-1, -1, -1, 0, 0, 1, 1, 1)[step]
-                dj = (-1, 0, 1, -1, 1, -1, 0, 1)[step]
-                a, b, c = i + di, j + dj, k
-                if a < 0 or a >= nx or b < 0 or b >= ny:
-                    continue
-            else:
-                a, b = i, j
-                c = (k + (1 if step == 8 else K - 1)) % K
-            m = (c * nx + a) * ny + b
-            flags = seen[m]
-            if flags & (mine | BLOCKED):
-                continue
-            if flags & other:
-                return True
-            if not flags & FREE and not _free(clear, shifts, thresholds, counts, c, a, b):
-                seen[m] = BLOCKED
-                continue
-            seen[m] = flags | FREE | mine
-            stacks[side] = _push(stacks[side], tops, side, m)
-    return False
+                    heapq.heappush(from_goal, (math.hypot(xs[i] - sx, ys[j] - sy), m))
+    # Grow the side that has met fewer configurations, each towards the other (nearest
+    # first), until the sides meet (connected) or one side runs out: it met its whole
+    # component, in whatever order, without the other (not connected).
+    met_start = met_goal = 0
+    while len(from_start) > 0 and len(from_goal) > 0:
+        if met_start + met_goal >= budget:
+            return -1
+        if met_start <= met_goal:
+            met_start += 1
+            number = heapq.heappop(from_start)[1]
+            if _grow(
+                clear,
+                shifts,
+                thresholds,
+                counts,
+                heads,
+                xs,
+                ys,
+                seen,
+                number,
+                FROM_START,
+                FROM_GOAL,
+                gx,
+                gy,
+                True,
+                from_start,
+            ):
+                return 1
+        else:
+            met_goal += 1
+            number = heapq.heappop(from_goal)[1]
+            if _grow(
+                clear,
+                shifts,
+                thresholds,
+                counts,
+                heads,
+                xs,
+                ys,
+                seen,
+                number,
+                FROM_GOAL,
+                FROM_START,
+                sx,
+                sy,
+                False,
+                from_goal,
+            ):
+                return 1
+    return 0
 
 
 @_jit
-def _push(  # pragma: no cover - compiled
-    stack: NDArray[np.int64], tops: NDArray[np.int64], side: int, value: int
-) -> NDArray[np.int64]:
-    """``stack`` with ``value`` on top (grown when full); ``tops[side]`` counts its entries."""
-    top = tops[side]
-    if top == stack.shape[0]:
-        grown = np.empty(2 * top, dtype=np.int64)
-        grown[:top] = stack
-        stack = grown
-    stack[top] = value
-    tops[side] = top + 1
-    return stack
+def _grow(  # pragma: no cover - compiled
+    clear: Array,
+    shifts: NDArray[np.int64],
+    thresholds: Array,
+    counts: NDArray[np.int64],
+    heads: Array,
+    xs: Array,
+    ys: Array,
+    seen: NDArray[np.uint8],
+    number: int,
+    mine: int,
+    other: int,
+    tx: float,
+    ty: float,
+    by_head: bool,
+    heap: list[tuple[float, int]],
+) -> bool:
+    """Push the free neighbours of ``number`` not yet met by this side (``mine``) onto its
+    heap, by their distance to (``tx``, ``ty``) (of the head, or of the centroid's cell);
+    ``True`` when one was met by the other side."""
+    nx, ny = clear.shape
+    K = counts.shape[0]
+    plane = nx * ny
+    k = number // plane
+    cell = number - k * plane
+    i = cell // ny
+    j = cell - i * ny
+    for step in range(10):  # 8 cells around at this bin, then one bin either way
+        if step < 8:
+            di = (-1, -1, -1, 0, 0, 1, 1, 1)[step]
+            dj = (-1, 0, 1, -1, 1, -1, 0, 1)[step]
+            a, b, c = i + di, j + dj, k
+            if a < 0 or a >= nx or b < 0 or b >= ny:
+                continue
+        else:
+            a, b = i, j
+            c = (k + (1 if step == 8 else K - 1)) % K
+        m = (c * nx + a) * ny + b
+        flags = seen[m]
+        if flags & (mine | BLOCKED):
+            continue
+        if flags & other:
+            return True
+        if not flags & FREE and not _free(clear, shifts, thresholds, counts, c, a, b):
+            seen[m] = BLOCKED
+            continue
+        seen[m] = flags | FREE | mine
+        x, y = xs[a], ys[b]
+        if by_head:
+            x, y = x + heads[c, 0], y + heads[c, 1]
+        heapq.heappush(heap, (math.hypot(x - tx, y - ty), m))
+    return False

@@ -43,6 +43,7 @@ def test_the_flood_fill_answers_as_the_labelling(seed: int) -> None:
     discs = [(*rng.uniform(-1.4, 1.4, 2), rng.uniform(0.05, 0.3)) for _ in range(4 + seed)]
     discs += ring(0.9, 0.9, 0.45)  # a pen: goals inside it cannot be reached from outside
     reach = Reachability(grid, TABLE, clearance(grid, discs), margin=0.03)
+    reach.flood_budget = 10**9  # the flood answers every question itself
     answers = []
     for _ in range(12):
         start = (int(rng.integers(grid.nx)), int(rng.integers(grid.ny)), int(rng.integers(64)))
@@ -61,3 +62,16 @@ def test_a_start_that_touches_everything_may_reach() -> None:
     reach = Reachability(grid, TABLE, blocked, margin=0.03)
     assert reach.reaches((20, 20, 0), (0.5, 0.5), 0.08, compiled=True)
     assert reach.reaches((20, 20, 0), (0.5, 0.5), 0.08, compiled=False)
+
+
+def test_a_flood_over_budget_leaves_the_answer_to_the_labelling() -> None:
+    assert TABLE is not None
+    grid = LatticeGrid(Bounds(-1.5, 1.5, -1.5, 1.5), SETTINGS)
+    reach = Reachability(grid, TABLE, clearance(grid, ring(0.9, 0.9, 0.45)), margin=0.03)
+    start, outside, inside = (10, 10, 0), (-1.0, 1.0), (0.9, 0.9)
+    reach.flood_budget = 10**9
+    assert reach.reaches(start, outside, 0.08) and not reach.reaches(start, inside, 0.08)
+    reach.flood_budget = 50  # too few to decide either: the labelling answers, the same
+    assert reach._labels is None
+    assert reach.reaches(start, outside, 0.08) and not reach.reaches(start, inside, 0.08)
+    assert reach._labels is not None  # it did answer
