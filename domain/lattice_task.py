@@ -97,8 +97,11 @@ class LatticeTask(Task):  # type: ignore[misc]
         self.cancel: CancelFlag | None = None
         self.expansions = 0
         # state -> [(next, primitive's PDDL name)] (lists shared with the motion cache: read only)
-        self.edges: dict[int, list[tuple[int, str]]] = {}
-        self.near: set[int] = set()
+        self._edges: dict[int, list[tuple[int, str]]] = {}
+        self._near: set[int] = set()
+        # States a compiled search expanded, their free motions (bitmasks) and whether the
+        # head was near the goal: ``edges`` and ``near`` are filled from them when first read.
+        self._pending: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_]] | None = None
         self.reached: dict[int, int] | None = None  # least moves to each state, while searching
         self._size = grid.size
         self._cache: MotionCache | None = None  # free motions kept between replans (not start's)
@@ -118,6 +121,91 @@ class LatticeTask(Task):  # type: ignore[misc]
             frozenset([self.goal_fact]),
             [],
         )
+
+    window: tuple[slice, slice] | None = None  # the cells successors must lie in (all: None)
+
+    @property
+    def edges(self) -> dict[int, list[tuple[int, str]]]:
+        """Every successor (next state, primitive's PDDL name) of every state expanded so far,
+        in the order they were handed out (what the PDDL export lists)."""
+        if self._pending is not None:
+            self._fill()
+        return self._edges
+
+    @property
+    def near(self) -> set[int]:
+        """The expanded states where the head is on the goal (a visit leaves them)."""
+        if self._pending is not None:
+            self._fill()
+        return self._near
+
+    @property
+    def motion_targets(self) -> NDArray[np.int64]:
+        """Per bin and motion: the next state's number less the cell's (see ``__init__``)."""
+        out: NDArray[np.int64] = self._targets
+        return out
+
+    def expanded(
+        self, numbers: NDArray[np.int64], bits: NDArray[np.int64], near: NDArray[np.bool_]
+    ) -> None:
+        """Record the states a compiled search expanded, in order, with their free motions
+        (bit ``m``: motion ``m``) and whether each is near the goal."""
+        if self._pending is not None:
+            self._fill()
+        self._pending = (numbers, bits, near)
+
+    def _fill(self) -> None:
+        """``edges`` and ``near`` from the recorded expansions (as ``get_successor_states``
+        would have filled them)."""
+        assert self._pending is not None
+        numbers, bits, near = self._pending
+        self._pending = None
+        names, targets, plane, ny = self.table.names, self._targets, self._size, self.grid.ny
+        plane = self.grid.nx * ny
+        shifts = np.arange(len(names), dtype=np.int64)
+        window = self.window
+        for number, mask, is_near in zip(numbers.tolist(), bits.tolist(), near.tolist(), strict=True):
+            if is_near:
+                self._near.add(number)
+            if number in self._edges:
+                continue
+            k, cell = divmod(number, plane)
+            ms = np.flatnonzero((mask >> shifts) & 1)
+            edges = []
+            for b, m in zip((targets[k][ms] + cell).tolist(), ms.tolist(), strict=True):
+                if b == number:
+                    continue
+                if window is not None:
+                    i, j = divmod(b % plane, ny)
+                    if not (window[0].start <= i < window[0].stop and window[1].start <= j < window[1].stop):
+                        continue
+                edges.append((b, names[m]))
+            self._edges[number] = edges
+
+    def near_states(self) -> NDArray[np.int64]:
+        """Every state where the head is on the goal (``is_near``), sorted: the cells round the
+        goal, by the same arithmetic as ``is_near`` (numpy's ``hypot`` may differ from
+        ``math.hypot`` in the last place, so states within a hair of the reach ask ``is_near``)."""
+        grid, r, b = self.grid, self.grid.settings.resolution, self.grid.bounds
+        gx, gy = self.goal
+        heads = np.asarray(self.table.heads, dtype=np.float64)  # [K, 2]
+        half = math.ceil(self.reach / r) + 2
+        span = np.arange(-half, half + 1)
+        # Per bin, the cells round the one whose head lies on the goal.
+        ci = np.floor((gx - heads[:, 0] - b.xmin) / r).astype(np.int64)[:, None, None]
+        cj = np.floor((gy - heads[:, 1] - b.ymin) / r).astype(np.int64)[:, None, None]
+        i, j = ci + span[None, :, None], cj + span[None, None, :]  # [K, S, 1], [K, 1, S]
+        x = b.xmin + (i + 0.5) * r + heads[:, 0, None, None]
+        y = b.ymin + (j + 0.5) * r + heads[:, 1, None, None]
+        d = np.hypot(x - gx, y - gy)  # [K, S, S]
+        on = (i >= 0) & (i < grid.nx) & (j >= 0) & (j < grid.ny)
+        near = on & (d <= self.reach)
+        unsure = on & (np.abs(d - self.reach) <= 1e-12 * max(1.0, self.reach))
+        for k, a, c in zip(*np.nonzero(unsure), strict=True):
+            near[k, a, c] = self.is_near((int(ci[k, 0, 0] + span[a]), int(cj[k, 0, 0] + span[c]), int(k)))
+        k, a, c = np.nonzero(near)
+        numbers = (k * grid.nx + ci[k, 0, 0] + span[a]) * grid.ny + cj[k, 0, 0] + span[c]
+        return np.sort(numbers.astype(np.int64))
 
     @property
     def cache(self) -> MotionCache | None:
@@ -217,8 +305,8 @@ class LatticeTask(Task):  # type: ignore[misc]
         if number is None or self.goal_reached(state):
             return []
         moves, edges = self.moves_from(number)
-        if number not in self.edges:
-            self.edges[number] = edges
+        if number not in self._edges:
+            self._edges[number] = edges
         reached = self.reached
         if reached is not None:  # drop what the search would drop (see ``search_reached``)
             g = reached[number] + 1
@@ -231,7 +319,7 @@ class LatticeTask(Task):  # type: ignore[misc]
             moves = kept
         if not self.is_near(self.grid.decode(number)):
             return moves  # type: ignore[return-value]  # (read only: shared with the cache)
-        self.near.add(number)
+        self._near.add(number)
         here = self.fact(number)
         op = Operator(
             f"(visit {state_name(number)} g{self.goal_index})", [here], [self.goal_fact], []
