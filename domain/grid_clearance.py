@@ -134,7 +134,7 @@ def bilinear_at(  # pragma: no cover - compiled
     low = values[i0, j0] * (1 - fv) + values[i0, j1] * fv
     high = values[i1, j0] * (1 - fv) + values[i1, j1] * fv
     wall = min(min(x - geo[3], geo[4] - x), min(y - geo[5], geo[6] - y))
-    return min(low * (1 - fu) + high * fu, wall)
+    return float(min(low * (1 - fu) + high * fu, wall))
 
 
 @_jit
@@ -147,8 +147,8 @@ def clearance_at(  # pragma: no cover - compiled
         for g in range(goals.shape[0]):
             dx, dy = x - goals[g, 0], y - goals[g, 1]
             if math.sqrt(dx * dx + dy * dy) < geo[7]:
-                return bilinear_at(near, geo, x, y)
-    return bilinear_at(values, geo, x, y)
+                return float(bilinear_at(near, geo, x, y))
+    return float(bilinear_at(values, geo, x, y))
 
 
 @_jit

@@ -20,7 +20,7 @@ from scipy import ndimage
 
 from domain.lattice import LatticeGrid, MotionTable
 from domain.lattice_states import LatticeState, StatePool
-from domain.lattice_store import new_store, store_drop, store_keys
+from domain.lattice_store import new_store, store_drop, store_keys, store_size
 from sim.robot import Array
 
 MOVES_LIMIT = 10_000  # states whose successors are kept (~5-10 KB each); then the older half goes
@@ -64,7 +64,7 @@ class MotionCache:
         self.version = version
         capped = np.minimum(at_centres.reshape(self.grid.nx, self.grid.ny), self.cap)
         old, self._capped = self._capped, capped
-        if old is None or not (self.free or self._compiled):
+        if old is None or not (self.free or store_size(self._compiled)):
             self.free.clear()
             self.moves.clear()
             self._compiled = None
@@ -91,7 +91,7 @@ class MotionCache:
     def _forget(self, changed: NDArray[np.bool_], origin: tuple[int, int]) -> None:
         """Drop the states within a motion's reach of a changed cell (``changed``: a window of
         cells whose first cell is ``origin``)."""
-        if not (self.free or self._compiled):
+        if not (self.free or store_size(self._compiled)):
             return
         # Only the changed cells' bounding box matters (the distances below reach past it).
         rows, cols = np.flatnonzero(changed.any(axis=1)), np.flatnonzero(changed.any(axis=0))
@@ -104,6 +104,7 @@ class MotionCache:
         pad = math.ceil(limit / r)
         grown = np.pad(changed, pad)  # states just outside the window may reach into it
         near = ndimage.distance_transform_edt(~grown) * r <= limit
+
         def hits(numbers: NDArray[np.int64]) -> NDArray[np.int64]:
             i, j = np.divmod(numbers % (self.grid.nx * self.grid.ny), self.grid.ny)
             li, lj = i - origin[0] + pad, j - origin[1] + pad
@@ -119,7 +120,7 @@ class MotionCache:
             for number in hits(numbers).tolist():
                 del self.free[number]
                 moves.pop(number, None)
-        if self._compiled:
+        if store_size(self._compiled):
             store_drop(self._compiled, hits(store_keys(self._compiled)))
 
     def compiled_free(self) -> Any:

@@ -18,16 +18,17 @@ from typing import Any
 
 import numpy as np
 
+from domain import lattice_search
 from domain.goal_order import LegGoal, order_goals
 from domain.lattice import Key, LatticeGrid, LatticeSettings, MotionTable
 from domain.lattice_cache import MotionCache
 from domain.lattice_distances import centroid_need, distance_map
-from domain import lattice_search
+from domain.lattice_heuristic import LatticeHeuristic
 from domain.lattice_plan import LatticeAction, LatticePlan
 from domain.lattice_reach import Reachability
 from domain.lattice_repair import PlanRepairer, leg_reach
 from domain.lattice_states import StatePool, no_cycle_collection
-from domain.lattice_task import Clearance, LatticeHeuristic, LatticeTask, primitive_name
+from domain.lattice_task import Clearance, LatticeTask, primitive_name
 from domain.pyperplan_adapter import (
     HEURISTICS,
     SEARCHES,

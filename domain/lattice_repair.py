@@ -113,6 +113,8 @@ def moves_free(
 class RejoinTask(LatticeTask):
     """A detour: from ``start`` to any of the lattice states ``targets`` within a window."""
 
+    window: tuple[slice, slice]
+
     def __init__(
         self,
         grid: LatticeGrid,

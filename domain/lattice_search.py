@@ -25,8 +25,9 @@ from pyperplan.task import Operator
 from domain import lattice_search_kernel as kernel
 from domain.grid_clearance import ClearanceGrids, grids_of
 from domain.lattice import MotionTable
+from domain.lattice_heuristic import LatticeHeuristic
 from domain.lattice_store import new_store
-from domain.lattice_task import LatticeHeuristic, LatticeTask
+from domain.lattice_task import LatticeTask
 from domain.occupancy_kernel import AVAILABLE
 from domain.pyperplan_adapter import stop_if_due
 from sim.robot import Array
@@ -35,6 +36,7 @@ CHUNK = 256  # expansions between checks of the deadline and the cancel flag
 FIRST_NODES = 4096  # room for search nodes at first (doubled when full)
 MAX_MOTIONS = 62  # motions per state a bitmask holds
 _NO_BUDGET = 2**62
+
 
 @dataclass(frozen=True)
 class KernelTable:
@@ -163,7 +165,7 @@ class _Search:
         return out
 
 
-def _heuristic_inputs(task: LatticeTask, heuristic: Any) -> tuple[int, Array, tuple[Array, ...]]:
+def _heuristic_inputs(task: LatticeTask, heuristic: Any) -> tuple[int, Array, tuple[Any, ...]]:
     """The kernel's heuristic: its kind, its numbers (turn step, step, largest turn) and arrays
     (base, way, narrow, the window's distances, target orientations)."""
     turn_step = task.grid.settings.step
@@ -192,11 +194,8 @@ def search(task: LatticeTask, heuristic: Any) -> list[Operator] | None:
     start_ok = task.free_mask(task.start_key)  # its own allowance, in Python as always
     start_bits = int(np.sum(np.left_shift(1, np.flatnonzero(start_ok)), dtype=np.int64))
     window = task.window or (slice(0, grid.nx), slice(0, grid.ny))
-    dims = np.array(
-        [grid.nx, grid.ny, grid.settings.orientations, window[0].start, window[1].start]
-        + [window[0].stop, window[1].stop],
-        dtype=np.int64,
-    )
+    (wi, wj), K = window, grid.settings.orientations
+    dims = np.array([grid.nx, grid.ny, K, wi.start, wj.start, wi.stop, wj.stop], dtype=np.int64)
     b = grid.bounds
     gf = np.array([b.xmin, b.ymin, grid.settings.resolution, kt.open_need])
     at_centres = task.at_centres if task.at_centres is not None else np.zeros(0)

@@ -18,7 +18,7 @@ import math
 
 import numpy as np
 
-from domain.grid_clearance import clearance_at
+from domain.lattice_motion_kernel import free_bits
 from domain.occupancy_kernel import _jit
 from sim.robot import Array
 
@@ -46,12 +46,12 @@ def remainder(x: float, y: float) -> float:  # pragma: no cover - compiled
         r = -c
     else:
         r = m - 2.0 * np.fmod(0.5 * (absx - m), absy)
-    return math.copysign(1.0, x) * r
+    return float(math.copysign(1.0, x) * r)
 
 
 @_jit
 def _less(h: Array, tie: Array, a: int, b: int) -> bool:  # pragma: no cover - compiled
-    return h[a] < h[b] or (h[a] == h[b] and tie[a] < tie[b])
+    return bool(h[a] < h[b] or (h[a] == h[b] and tie[a] < tie[b]))
 
 
 @_jit
@@ -92,13 +92,20 @@ def _pop(hh: Array, ht: Array, hn: Array, size: int) -> int:  # pragma: no cover
         ht[p], ht[least] = ht[least], ht[p]
         hn[p], hn[least] = hn[least], hn[p]
         p = least
-    return top
+    return int(top)
 
 
 @_jit
 def heuristic(  # pragma: no cover - compiled
-    number: int, kind: int, dims: Array, hf: Array, base: Array, way: Array, narrow: Array,
-    window_dist: Array, ks: Array,
+    number: int,
+    kind: int,
+    dims: Array,
+    hf: Array,
+    base: Array,
+    way: Array,
+    narrow: Array,
+    window_dist: Array,
+    ks: Array,
 ) -> float:
     """The heuristic of a (not visited) state. ``dims``: nx, ny, K, window i0, j0; ``hf``:
     turn step, step (rejoin), largest turn (rejoin)."""
@@ -112,7 +119,7 @@ def heuristic(  # pragma: no cover - compiled
         h += HEAD_WEIGHT * abs(remainder(psi + math.pi - w, 2 * math.pi)) / math.pi
         if narrow[cell]:
             h += ALIGN_WEIGHT * abs(remainder(psi - w, math.pi)) / (math.pi / 2)
-        return h
+        return float(h)
     rest, j = number // ny, number % ny
     k, i = rest // nx, rest % nx
     di, dj = i - dims[3], j - dims[4]
@@ -128,134 +135,53 @@ def heuristic(  # pragma: no cover - compiled
         e = abs(remainder((k - t) * hf[0], 2 * math.pi))
         if e < dk:
             dk = e
-    return d / hf[1] + dk / hf[2]
-
-
-@_jit
-def _samples_clear(  # pragma: no cover - compiled
-    flat: Array, gnx: int, gny: int, geo: Array, cx: float, cy: float, ux: Array, uy: Array,
-    inverse: Array, needs: Array, lo: int, hi: int,
-) -> bool:
-    """Whether samples ``lo:hi`` keep their needs, with the clearance of one grid
-    (``grid_clearance.bilinear_at`` written out: the same operations, constants hoisted)."""
-    ox, oy, res = geo[0], geo[1], geo[2]
-    xmin, xmax, ymin, ymax = geo[3], geo[4], geo[5], geo[6]
-    top_u, top_v = gnx - 1.0, gny - 1.0
-    i_top, j_top = max(gnx - 2, 0), max(gny - 2, 0)
-    di = gny if gnx > 1 else 0
-    dj = 1 if gny > 1 else 0
-    for p in range(lo, hi):
-        q = inverse[p]
-        x, y = cx + ux[q], cy + uy[q]
-        u = min(max((x - ox) / res - 0.5, 0.0), top_u)
-        v = min(max((y - oy) / res - 0.5, 0.0), top_v)
-        i0 = min(int(u), i_top)
-        j0 = min(int(v), j_top)
-        fu, fv = u - i0, v - j0
-        base = i0 * gny + j0
-        low = flat[base] * (1 - fv) + flat[base + dj] * fv
-        high = flat[base + di] * (1 - fv) + flat[base + di + dj] * fv
-        wall = min(min(x - xmin, xmax - x), min(y - ymin, ymax - y))
-        if not min(low * (1 - fu) + high * fu, wall) >= needs[p]:
-            return False
-    return True
-
-
-@_jit
-def _samples_clear_mixed(  # pragma: no cover - compiled
-    flat: Array, flat_near: Array, gny: int, goals: Array, geo: Array, cx: float, cy: float,
-    ux: Array, uy: Array, inverse: Array, needs: Array, lo: int, hi: int,
-) -> bool:
-    """``_samples_clear`` for the ``off-goals`` clearance (the second grid near a goal)."""
-    gnx = flat.shape[0] // gny
-    ox, oy, res = geo[0], geo[1], geo[2]
-    xmin, xmax, ymin, ymax, radius = geo[3], geo[4], geo[5], geo[6], geo[7]
-    top_u, top_v = gnx - 1.0, gny - 1.0
-    i_top, j_top = max(gnx - 2, 0), max(gny - 2, 0)
-    di = gny if gnx > 1 else 0
-    dj = 1 if gny > 1 else 0
-    for p in range(lo, hi):
-        q = inverse[p]
-        x, y = cx + ux[q], cy + uy[q]
-        grid = flat
-        for g in range(goals.shape[0]):
-            gx, gy = x - goals[g, 0], y - goals[g, 1]
-            if math.sqrt(gx * gx + gy * gy) < radius:
-                grid = flat_near
-                break
-        u = min(max((x - ox) / res - 0.5, 0.0), top_u)
-        v = min(max((y - oy) / res - 0.5, 0.0), top_v)
-        i0 = min(int(u), i_top)
-        j0 = min(int(v), j_top)
-        fu, fv = u - i0, v - j0
-        base = i0 * gny + j0
-        low = grid[base] * (1 - fv) + grid[base + dj] * fv
-        high = grid[base + di] * (1 - fv) + grid[base + di + dj] * fv
-        wall = min(min(x - xmin, xmax - x), min(y - ymin, ymax - y))
-        if not min(low * (1 - fu) + high * fu, wall) >= needs[p]:
-            return False
-    return True
-
-
-@_jit
-def free_bits(  # pragma: no cover - compiled
-    number: int, dims: Array, gf: Array, at_centres: Array, values: Array, near: Array,
-    goals: Array, geo: Array, ux: Array, uy: Array, inverse: Array, needs: Array,
-    segments: Array, deltas: Array, cell_reach: Array,
-) -> int:
-    """``LatticeTask.free_mask`` of a state (not the start) as a bitmask: the motions whose
-    swept sample points all keep their need (with the margin), and which end on the grid.
-    ``gf``: grid xmin, ymin, resolution, open clearance + margin."""
-    nx, ny = dims[0], dims[1]
-    plane = nx * ny
-    k, cell = number // plane, number % plane
-    i, j = cell // ny, cell % ny
-    cx = gf[0] + (i + 0.5) * gf[2]
-    cy = gf[1] + (j + 0.5) * gf[2]
-    if at_centres.shape[0] > 0:
-        here = at_centres[cell]
-    else:
-        here = clearance_at(values, near, goals, geo, cx, cy)
-    n_motions = segments.shape[1] - 1
-    bits = 0
-    if here >= gf[3]:
-        bits = (1 << n_motions) - 1  # open space: nothing near enough
-    else:
-        flat, flat_near = values.ravel(), near.ravel()
-        for m in range(n_motions):
-            lo, hi = segments[k, m], segments[k, m + 1]
-            if near.shape[0] > 0:
-                ok = _samples_clear_mixed(
-                    flat, flat_near, values.shape[1], goals, geo, cx, cy, ux[k], uy[k],
-                    inverse[k], needs[k], lo, hi,
-                )
-            else:
-                ok = _samples_clear(
-                    flat, values.shape[0], values.shape[1], geo, cx, cy, ux[k], uy[k],
-                    inverse[k], needs[k], lo, hi,
-                )
-            if ok:
-                bits |= 1 << m
-    reach = cell_reach[k]
-    if not (reach <= i < nx - reach and reach <= j < ny - reach):
-        for m in range(n_motions):
-            ni, nj = i + deltas[k, m, 0], j + deltas[k, m, 1]
-            if not (0 <= ni < nx and 0 <= nj < ny):
-                bits &= ~(1 << m)
-    return bits
+    return float(d / hf[1] + dk / hf[2])
 
 
 @_jit
 def run(  # pragma: no cover - compiled
-    chunk: int, budget: int, start: int, start_bits: int, near_states: Array,
-    dims: Array, gf: Array, at_centres: Array, values: Array, near: Array, goals: Array,
-    geo: Array, ux: Array, uy: Array, inverse: Array, needs: Array, segments: Array,
-    deltas: Array, cell_reach: Array, targets: Array,
-    kind: int, hf: Array, base: Array, way: Array, narrow: Array, window_dist: Array, ks: Array,
-    cache: dict[int, int], use_cache: bool, cost: dict[int, int],
-    node_state: Array, node_parent: Array, node_g: Array, node_op: Array,
-    hh: Array, ht: Array, hn: Array, count: Array, best_h: Array,
-    exp_number: Array, exp_bits: Array, exp_near: Array,
+    chunk: int,
+    budget: int,
+    start: int,
+    start_bits: int,
+    near_states: Array,
+    dims: Array,
+    gf: Array,
+    at_centres: Array,
+    values: Array,
+    near: Array,
+    goals: Array,
+    geo: Array,
+    ux: Array,
+    uy: Array,
+    inverse: Array,
+    needs: Array,
+    segments: Array,
+    deltas: Array,
+    cell_reach: Array,
+    targets: Array,
+    kind: int,
+    hf: Array,
+    base: Array,
+    way: Array,
+    narrow: Array,
+    window_dist: Array,
+    ks: Array,
+    cache: dict[int, int],
+    use_cache: bool,
+    cost: dict[int, int],
+    node_state: Array,
+    node_parent: Array,
+    node_g: Array,
+    node_op: Array,
+    hh: Array,
+    ht: Array,
+    hn: Array,
+    count: Array,
+    best_h: Array,
+    exp_number: Array,
+    exp_bits: Array,
+    exp_near: Array,
 ) -> int:
     """Up to ``chunk`` expansions of the search whose state is in the arrays (see the module's
     docstring); what it ended with. A visited goal's state is ``-(number + 1)``. ``dims``: nx,
@@ -289,8 +215,21 @@ def run(  # pragma: no cover - compiled
             bits = cache[state]
         else:
             bits = free_bits(
-                state, dims, gf, at_centres, values, near, goals, geo, ux, uy, inverse,
-                needs, segments, deltas, cell_reach,
+                state,
+                dims,
+                gf,
+                at_centres,
+                values,
+                near,
+                goals,
+                geo,
+                ux,
+                uy,
+                inverse,
+                needs,
+                segments,
+                deltas,
+                cell_reach,
             )
             if use_cache:
                 cache[state] = bits
@@ -305,7 +244,10 @@ def run(  # pragma: no cover - compiled
             child = count[NODES]
             count[NODES] += 1
             node_state[child], node_parent[child], node_g[child], node_op[child] = (
-                visited, node, g, -1,
+                visited,
+                node,
+                g,
+                -1,
             )
             # (its heuristic answers 0 without taking it for the best node)
             if g < cost.get(visited, g + 1):
@@ -328,7 +270,10 @@ def run(  # pragma: no cover - compiled
             child = count[NODES]
             count[NODES] += 1
             node_state[child], node_parent[child], node_g[child], node_op[child] = (
-                b, node, g, m,
+                b,
+                node,
+                g,
+                m,
             )
             h = heuristic(b, kind, dims, hf, base, way, narrow, window_dist, ks)
             if count[BEST] < 0 or h < best_h[0]:

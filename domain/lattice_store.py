@@ -28,9 +28,15 @@ def new_store() -> Any:
     return Dict.empty(key_type=types.int64, value_type=types.int64)
 
 
+def store_size(store: Any) -> int:
+    """How many states a store holds (0 for none); compiled: ``len`` of a typed dict from
+    Python compiles on first use in every process."""
+    return 0 if store is None else int(_size(store))
+
+
 def store_keys(store: Any) -> NDArray[np.int64]:
     """The state numbers a store holds."""
-    out = np.empty(len(store), dtype=np.int64)
+    out = np.empty(store_size(store), dtype=np.int64)
     _keys(store, out)
     return out
 
@@ -42,11 +48,14 @@ def store_drop(store: Any, numbers: NDArray[np.int64]) -> None:
 
 
 @_jit
+def _size(store: Any) -> int:  # pragma: no cover - compiled
+    return len(store)
+
+
+@_jit
 def _keys(store: Any, out: NDArray[np.int64]) -> None:  # pragma: no cover - compiled
-    n = 0
-    for key in store.keys():
+    for n, key in enumerate(store.keys()):
         out[n] = key
-        n += 1
 
 
 @_jit
