@@ -102,6 +102,11 @@ class GridClearance:
         return self._grids()
 
 
+def has_grids(clearance: object) -> bool:
+    """Whether a clearance callable has a compiled form."""
+    return isinstance(clearance, GridClearance)
+
+
 def grids_of(clearance: object) -> ClearanceGrids | None:
     """The compiled form of a clearance callable, if it has one (else ``None``)."""
     return clearance.grids() if isinstance(clearance, GridClearance) else None

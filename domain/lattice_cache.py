@@ -24,6 +24,8 @@ from domain.lattice_store import new_store, store_drop, store_keys, store_size
 from sim.robot import Array
 
 MOVES_LIMIT = 10_000  # states whose successors are kept (~5-10 KB each); then the older half goes
+COMPILED_LIMIT = 1_000_000  # states whose free motions the compiled store keeps (~60 B each);
+# then it starts afresh (what it forgets is checked again when met: no plan changes)
 Moves = tuple[list[tuple[Operator, LatticeState]], list[tuple[int, str]]]  # successors, edges
 
 
@@ -37,9 +39,13 @@ class MotionCache:
         margin: float,
         states: StatePool | None = None,
         moves_limit: int = MOVES_LIMIT,
+        compiled_limit: int = COMPILED_LIMIT,
     ) -> None:
         if moves_limit < 1:
             raise ValueError("moves_limit: at least 1 state")
+        if compiled_limit < 1:
+            raise ValueError("compiled_limit: at least 1 state")
+        self.compiled_limit = compiled_limit
         self.grid, self.table, self.margin = grid, table, margin
         self.free: dict[int, NDArray[np.bool_]] = {}
         # Successors of the states in ``free`` (from the same verdicts), built on demand.
@@ -126,7 +132,7 @@ class MotionCache:
     def compiled_free(self) -> Any:
         """The free motions for the compiled search: a numba typed dict of state number ->
         bitmask (bit ``m``: motion ``m``), kept and forgotten as ``free`` is."""
-        if self._compiled is None:
+        if self._compiled is None or store_size(self._compiled) >= self.compiled_limit:
             self._compiled = new_store()
         return self._compiled
 

@@ -3,7 +3,8 @@
 ``LatticeTask.free_mask`` for the compiled search (domain/lattice_search_kernel.py): the swept
 sample points of each motion against the clearance's grids (domain/grid_clearance.py), with
 ``interpolate._compiled``'s arithmetic written out in the loop (the same operations, so the same
-verdicts), each motion stopping at its first point that fails.
+verdicts): the clearance at each distinct point of the bin once, then each motion's points in
+turn until the first that fails.
 """
 
 from __future__ import annotations
@@ -16,90 +17,56 @@ from sim.robot import Array
 
 
 @_jit
-def _samples_clear(  # pragma: no cover - compiled
-    flat: Array,
-    gnx: int,
-    gny: int,
-    geo: Array,
-    cx: float,
-    cy: float,
-    ux: Array,
-    uy: Array,
-    inverse: Array,
-    needs: Array,
-    lo: int,
-    hi: int,
-) -> bool:
-    """Whether samples ``lo:hi`` keep their needs, with the clearance of one grid
-    (``grid_clearance.bilinear_at`` written out: the same operations, constants hoisted)."""
-    ox, oy, res = geo[0], geo[1], geo[2]
-    xmin, xmax, ymin, ymax = geo[3], geo[4], geo[5], geo[6]
-    top_u, top_v = gnx - 1.0, gny - 1.0
-    i_top, j_top = max(gnx - 2, 0), max(gny - 2, 0)
-    di = gny if gnx > 1 else 0
-    dj = 1 if gny > 1 else 0
-    for p in range(lo, hi):
-        q = inverse[p]
-        x, y = cx + ux[q], cy + uy[q]
-        u = min(max((x - ox) / res - 0.5, 0.0), top_u)
-        v = min(max((y - oy) / res - 0.5, 0.0), top_v)
-        i0 = min(int(u), i_top)
-        j0 = min(int(v), j_top)
-        fu, fv = u - i0, v - j0
-        base = i0 * gny + j0
-        low = flat[base] * (1 - fv) + flat[base + dj] * fv
-        high = flat[base + di] * (1 - fv) + flat[base + di + dj] * fv
-        wall = min(min(x - xmin, xmax - x), min(y - ymin, ymax - y))
-        if not min(low * (1 - fu) + high * fu, wall) >= needs[p]:
-            return False
-    return True
-
-
-@_jit
-def _samples_clear_mixed(  # pragma: no cover - compiled
-    flat: Array,
-    flat_near: Array,
-    gny: int,
+def _distinct_clearance(  # pragma: no cover - compiled
+    values: Array,
+    near: Array,
     goals: Array,
     geo: Array,
     cx: float,
     cy: float,
     ux: Array,
     uy: Array,
-    inverse: Array,
-    needs: Array,
-    lo: int,
-    hi: int,
-) -> bool:
-    """``_samples_clear`` for the ``off-goals`` clearance (the second grid near a goal)."""
-    gnx = flat.shape[0] // gny
-    ox, oy, res = geo[0], geo[1], geo[2]
-    xmin, xmax, ymin, ymax, radius = geo[3], geo[4], geo[5], geo[6], geo[7]
+    count: int,
+    out: Array,
+    su: Array,
+    sv: Array,
+) -> None:
+    """The clearance at a bin's first ``count`` distinct sample points about ``(cx, cy)`` into
+    ``out``: ``grid_clearance.clearance_at`` written out (the same operations), every distinct
+    point once as ``LatticeTask._free_motions`` does. The divisions in a first loop of their
+    own (``su``, ``sv``: room for the grid coordinates), which the compiler vectorises, the
+    grid reads in a second."""
+    gnx, gny = values.shape
+    flat, flat_near = values.ravel(), near.ravel()
+    ox, oy, res, radius = geo[0], geo[1], geo[2], geo[7]
+    xmin, xmax, ymin, ymax = geo[3], geo[4], geo[5], geo[6]
     top_u, top_v = gnx - 1.0, gny - 1.0
     i_top, j_top = max(gnx - 2, 0), max(gny - 2, 0)
     di = gny if gnx > 1 else 0
     dj = 1 if gny > 1 else 0
-    for p in range(lo, hi):
-        q = inverse[p]
+    for q in range(count):
         x, y = cx + ux[q], cy + uy[q]
+        su[q] = min(max((x - ox) / res - 0.5, 0.0), top_u)
+        sv[q] = min(max((y - oy) / res - 0.5, 0.0), top_v)
+        out[q] = min(min(x - xmin, xmax - x), min(y - ymin, ymax - y))  # the walls
+    mixed = near.shape[0] > 0  # off-goals: the second grid within the radius of a goal
+    for q in range(count):
         grid = flat
-        for g in range(goals.shape[0]):
-            gx, gy = x - goals[g, 0], y - goals[g, 1]
-            if math.sqrt(gx * gx + gy * gy) < radius:
-                grid = flat_near
-                break
-        u = min(max((x - ox) / res - 0.5, 0.0), top_u)
-        v = min(max((y - oy) / res - 0.5, 0.0), top_v)
+        if mixed:
+            x, y = cx + ux[q], cy + uy[q]
+            for g in range(goals.shape[0]):
+                gx, gy = x - goals[g, 0], y - goals[g, 1]
+                if math.sqrt(gx * gx + gy * gy) < radius:
+                    grid = flat_near
+                    break
+        u, v = su[q], sv[q]
         i0 = min(int(u), i_top)
         j0 = min(int(v), j_top)
         fu, fv = u - i0, v - j0
         base = i0 * gny + j0
         low = grid[base] * (1 - fv) + grid[base + dj] * fv
         high = grid[base + di] * (1 - fv) + grid[base + di + dj] * fv
-        wall = min(min(x - xmin, xmax - x), min(y - ymin, ymax - y))
-        if not min(low * (1 - fu) + high * fu, wall) >= needs[p]:
-            return False
-    return True
+        out[q] = min(low * (1 - fu) + high * fu, out[q])
 
 
 @_jit
@@ -119,10 +86,13 @@ def free_bits(  # pragma: no cover - compiled
     segments: Array,
     deltas: Array,
     cell_reach: Array,
+    n_unique: Array,
+    scratch: Array,
 ) -> int:
     """``LatticeTask.free_mask`` of a state (not the start) as a bitmask: the motions whose
     swept sample points all keep their need (with the margin), and which end on the grid.
-    ``gf``: grid xmin, ymin, resolution, open clearance + margin."""
+    ``gf``: grid xmin, ymin, resolution, open clearance + margin; ``n_unique``: each bin's
+    distinct points; ``scratch`` ``[3, U]``: room for the clearance at as many."""
     nx, ny = dims[0], dims[1]
     plane = nx * ny
     k, cell = number // plane, number % plane
@@ -138,40 +108,17 @@ def free_bits(  # pragma: no cover - compiled
     if here >= gf[3]:
         bits = (1 << n_motions) - 1  # open space: nothing near enough
     else:
-        flat, flat_near = values.ravel(), near.ravel()
+        n = n_unique[k]
+        _distinct_clearance(
+            values, near, goals, geo, cx, cy, ux[k], uy[k], n, scratch[0], scratch[1], scratch[2]
+        )
+        clear = scratch[0]
         for m in range(n_motions):
-            lo, hi = segments[k, m], segments[k, m + 1]
-            if near.shape[0] > 0:
-                ok = _samples_clear_mixed(
-                    flat,
-                    flat_near,
-                    values.shape[1],
-                    goals,
-                    geo,
-                    cx,
-                    cy,
-                    ux[k],
-                    uy[k],
-                    inverse[k],
-                    needs[k],
-                    lo,
-                    hi,
-                )
-            else:
-                ok = _samples_clear(
-                    flat,
-                    values.shape[0],
-                    values.shape[1],
-                    geo,
-                    cx,
-                    cy,
-                    ux[k],
-                    uy[k],
-                    inverse[k],
-                    needs[k],
-                    lo,
-                    hi,
-                )
+            ok = True
+            for p in range(segments[k, m], segments[k, m + 1]):
+                if not clear[inverse[k, p]] >= needs[k, p]:
+                    ok = False
+                    break
             if ok:
                 bits |= 1 << m
     reach = cell_reach[k]

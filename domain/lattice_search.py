@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 from pyperplan.task import Operator
 
 from domain import lattice_search_kernel as kernel
-from domain.grid_clearance import ClearanceGrids, grids_of
+from domain.grid_clearance import ClearanceGrids, grids_of, has_grids
 from domain.lattice import MotionTable
 from domain.lattice_heuristic import LatticeHeuristic
 from domain.lattice_store import new_store
@@ -51,6 +51,7 @@ class KernelTable:
     segments: NDArray[np.int64]
     deltas: NDArray[np.int64]
     cell_reach: NDArray[np.int64]
+    n_unique: NDArray[np.int64]
     open_need: float
 
 
@@ -85,6 +86,7 @@ def kernel_table(table: MotionTable, margin: float) -> KernelTable:
         segments,
         np.ascontiguousarray(table.deltas, dtype=np.int64),
         np.asarray(table.cell_reach, dtype=np.int64),
+        np.array([len(u) for u, _ in distinct], dtype=np.int64),
         table.open_clearance + margin,
     )
     if len(_TABLES) >= TABLES_KEPT:
@@ -102,7 +104,7 @@ def applies(task: LatticeTask, heuristic: Any) -> bool:
         and type(heuristic) in (LatticeHeuristic, RejoinHeuristic)
         and isinstance(task, LatticeTask)
         and len(task.table.motions) <= MAX_MOTIONS
-        and grids_of(task.clearance) is not None
+        and has_grids(task.clearance)
     )
 
 
@@ -221,6 +223,7 @@ def search(task: LatticeTask, heuristic: Any) -> list[Operator] | None:
             status = kernel.run(
                 CHUNK, budget, start, start_bits, near_states, dims, gf, at_centres, *world,
                 kt.ux, kt.uy, kt.inverse, kt.needs, kt.segments, kt.deltas, kt.cell_reach,
+                kt.n_unique,
                 task.motion_targets, kind, hf, base, way, narrow, window_dist, ks, store, use_cache,
                 cost, s.node_state, s.node_parent, s.node_g, s.node_op, s.hh, s.ht, s.hn,
                 s.count, s.best_h, s.exp_number, s.exp_bits, s.exp_near,

@@ -159,6 +159,7 @@ def run(  # pragma: no cover - compiled
     segments: Array,
     deltas: Array,
     cell_reach: Array,
+    n_unique: Array,
     targets: Array,
     kind: int,
     hf: Array,
@@ -190,6 +191,7 @@ def run(  # pragma: no cover - compiled
     plane = nx * ny
     n_motions = segments.shape[1] - 1
     cap = node_state.shape[0]
+    scratch = np.empty((3, ux.shape[1]))  # a state's clearance at its bin's distinct points
     done = 0
     while count[HEAP] > 0:
         if done >= chunk:
@@ -230,6 +232,8 @@ def run(  # pragma: no cover - compiled
                 segments,
                 deltas,
                 cell_reach,
+                n_unique,
+                scratch,
             )
             if use_cache:
                 cache[state] = bits
