@@ -49,16 +49,25 @@ def _distinct_clearance(  # pragma: no cover - compiled
         su[q] = min(max((x - ox) / res - 0.5, 0.0), top_u)
         sv[q] = min(max((y - oy) / res - 0.5, 0.0), top_v)
         out[q] = min(min(x - xmin, xmax - x), min(y - ymin, ymax - y))  # the walls
-    mixed = near.shape[0] > 0  # off-goals: the second grid within the radius of a goal
-    for q in range(count):
+    if near.shape[0] == 0:
+        for q in range(count):
+            u, v = su[q], sv[q]
+            i0 = min(int(u), i_top)
+            j0 = min(int(v), j_top)
+            fu, fv = u - i0, v - j0
+            base = i0 * gny + j0
+            low = flat[base] * (1 - fv) + flat[base + dj] * fv
+            high = flat[base + di] * (1 - fv) + flat[base + di + dj] * fv
+            out[q] = min(low * (1 - fu) + high * fu, out[q])
+        return
+    for q in range(count):  # off-goals: the second grid within the radius of a goal
         grid = flat
-        if mixed:
-            x, y = cx + ux[q], cy + uy[q]
-            for g in range(goals.shape[0]):
-                gx, gy = x - goals[g, 0], y - goals[g, 1]
-                if math.sqrt(gx * gx + gy * gy) < radius:
-                    grid = flat_near
-                    break
+        x, y = cx + ux[q], cy + uy[q]
+        for g in range(goals.shape[0]):
+            gx, gy = x - goals[g, 0], y - goals[g, 1]
+            if math.sqrt(gx * gx + gy * gy) < radius:
+                grid = flat_near
+                break
         u, v = su[q], sv[q]
         i0 = min(int(u), i_top)
         j0 = min(int(v), j_top)
