@@ -20,7 +20,7 @@ from scipy import ndimage
 
 from domain.lattice import LatticeGrid, MotionTable
 from domain.lattice_states import LatticeState, StatePool
-from domain.lattice_store import new_store, store_drop, store_keys, store_size
+from domain.lattice_store import new_store, store_forget
 from sim.robot import Array
 
 MOVES_LIMIT = 10_000  # states whose successors are kept (~5-10 KB each); then the older half goes
@@ -53,6 +53,7 @@ class MotionCache:
         # The same verdicts for the compiled search (domain/lattice_search.py): state number ->
         # free motions as a bitmask, in a numba typed dict (made on first use).
         self._compiled: Any = None
+        self.compiled_size = 0  # states in it (as the last search or forget left it)
         self.moves_limit = moves_limit
         self.states = states if states is not None else StatePool()
         # Clearance above this decides nothing: every motion needs less at every point.
@@ -70,10 +71,10 @@ class MotionCache:
         self.version = version
         capped = np.minimum(at_centres.reshape(self.grid.nx, self.grid.ny), self.cap)
         old, self._capped = self._capped, capped
-        if old is None or not (self.free or store_size(self._compiled)):
+        if old is None or not (self.free or self._compiled is not None):
             self.free.clear()
             self.moves.clear()
-            self._compiled = None
+            self._compiled, self.compiled_size = None, 0
             return
         changed = np.abs(capped - old) > 1e-9
         if np.any(changed):
@@ -97,7 +98,7 @@ class MotionCache:
     def _forget(self, changed: NDArray[np.bool_], origin: tuple[int, int]) -> None:
         """Drop the states within a motion's reach of a changed cell (``changed``: a window of
         cells whose first cell is ``origin``)."""
-        if not (self.free or store_size(self._compiled)):
+        if not (self.free or self._compiled is not None):
             return
         # Only the changed cells' bounding box matters (the distances below reach past it).
         rows, cols = np.flatnonzero(changed.any(axis=1)), np.flatnonzero(changed.any(axis=0))
@@ -111,29 +112,28 @@ class MotionCache:
         grown = np.pad(changed, pad)  # states just outside the window may reach into it
         near = ndimage.distance_transform_edt(~grown) * r <= limit
 
-        def hits(numbers: NDArray[np.int64]) -> NDArray[np.int64]:
-            i, j = np.divmod(numbers % (self.grid.nx * self.grid.ny), self.grid.ny)
+        plane, ny = self.grid.nx * self.grid.ny, self.grid.ny
+        if self.free:
+            numbers = np.fromiter(self.free, dtype=np.int64, count=len(self.free))
+            i, j = np.divmod(numbers % plane, ny)
             li, lj = i - origin[0] + pad, j - origin[1] + pad
             inside = (li >= 0) & (li < near.shape[0]) & (lj >= 0) & (lj < near.shape[1])
             hit = np.zeros(numbers.size, dtype=bool)
             hit[inside] = near[li[inside], lj[inside]]
-            out: NDArray[np.int64] = numbers[hit]
-            return out
-
-        if self.free:
-            numbers = np.fromiter(self.free, dtype=np.int64, count=len(self.free))
             moves = self.moves
-            for number in hits(numbers).tolist():
+            for number in numbers[hit].tolist():
                 del self.free[number]
                 moves.pop(number, None)
-        if store_size(self._compiled):
-            store_drop(self._compiled, hits(store_keys(self._compiled)))
+        if self._compiled is not None:  # the same states, in the compiled store
+            self.compiled_size = store_forget(
+                self._compiled, near, origin[0] - pad, origin[1] - pad, plane, ny
+            )
 
     def compiled_free(self) -> Any:
         """The free motions for the compiled search: a numba typed dict of state number ->
         bitmask (bit ``m``: motion ``m``), kept and forgotten as ``free`` is."""
-        if self._compiled is None or store_size(self._compiled) >= self.compiled_limit:
-            self._compiled = new_store()
+        if self._compiled is None or self.compiled_size >= self.compiled_limit:
+            self._compiled, self.compiled_size = new_store(), 0
         return self._compiled
 
     def keep_moves(self, number: int, moves: Moves) -> None:

@@ -209,12 +209,6 @@ def search(task: LatticeTask, heuristic: Any) -> list[Operator] | None:
     cost = new_store()
     s = _Search(FIRST_NODES)
     start = task.start_number
-    cost[start] = 0
-    s.node_state[0], s.node_parent[0], s.node_g[0], s.node_op[0] = start, -1, 0, -2
-    root_h = kernel.heuristic(start, kind, dims, hf, base, way, narrow, window_dist, ks)
-    s.best_h[0], s.count[kernel.BEST] = root_h, 0
-    s.hh[0], s.ht[0], s.hn[0] = root_h, 0, 0
-    s.count[kernel.NODES], s.count[kernel.HEAP] = 1, 1
     budget = int(task.budget) if math.isfinite(task.budget) else _NO_BUDGET
     near_states = task.near_states()
     try:
@@ -237,6 +231,8 @@ def search(task: LatticeTask, heuristic: Any) -> list[Operator] | None:
             elif status == kernel.EXHAUSTED:
                 return None
     finally:
+        if cache is not None:
+            cache.compiled_size = int(s.count[kernel.STORED])
         task.expansions = int(s.count[kernel.EXPANSIONS])
         n = int(s.count[kernel.EXPANDED])
         task.expanded(s.exp_number[:n].copy(), s.exp_bits[:n].copy(), s.exp_near[:n].copy())

@@ -23,9 +23,9 @@ from domain.occupancy_kernel import _jit
 from sim.robot import Array
 
 # Counters (``count``): nodes made, heap size, pushes (the tiebreaker), expansions, best node,
-# states expanded (recorded), the goal node.
-NODES, HEAP, TIE, EXPANSIONS, BEST, EXPANDED, GOAL = range(7)
-COUNTERS = 7
+# states expanded (recorded), the goal node, states in the motion cache's store.
+NODES, HEAP, TIE, EXPANSIONS, BEST, EXPANDED, GOAL, STORED = range(8)
+COUNTERS = 8
 # What a chunk ended with.
 RUNNING, SOLVED, EXHAUSTED, OVER_BUDGET, NEED_ROOM = range(5)
 # Heuristics: the planner's lattice heuristic, the repair's rejoin heuristic.
@@ -186,12 +186,44 @@ def run(  # pragma: no cover - compiled
 ) -> int:
     """Up to ``chunk`` expansions of the search whose state is in the arrays (see the module's
     docstring); what it ended with. A visited goal's state is ``-(number + 1)``. ``dims``: nx,
-    ny, K, window i0, j0, i1, j1 (the cells successors may lie in)."""
+    ny, K, window i0, j0, i1, j1 (the cells successors may lie in). The first call pushes the
+    root (``count`` all zero)."""
+    scratch = np.empty((3, ux.shape[1]))  # a state's clearance at its bin's distinct points
+    if count[NODES] == 0:  # the root: pushed whatever its heuristic
+        h = heuristic(start, kind, dims, hf, base, way, narrow, window_dist, ks)
+        node_state[0], node_parent[0], node_g[0], node_op[0] = start, -1, 0, -2
+        best_h[0], count[BEST] = h, 0
+        cost[start] = 0
+        count[NODES] = 1
+        count[HEAP] = _push(hh, ht, hn, 0, h, 0, 0)
+    status = _expand(
+        chunk, budget, start, start_bits, near_states, dims, gf, at_centres, values, near,
+        goals, geo, ux, uy, inverse, needs, segments, deltas, cell_reach, n_unique, targets,
+        kind, hf, base, way, narrow, window_dist, ks, cache, use_cache, cost, node_state,
+        node_parent, node_g, node_op, hh, ht, hn, count, best_h, exp_number, exp_bits,
+        exp_near, scratch,
+    )  # fmt: skip
+    count[STORED] = len(cache)
+    return int(status)
+
+
+@_jit
+def _expand(  # pragma: no cover - compiled
+    chunk: int, budget: int, start: int, start_bits: int, near_states: Array,
+    dims: Array, gf: Array, at_centres: Array, values: Array, near: Array, goals: Array,
+    geo: Array, ux: Array, uy: Array, inverse: Array, needs: Array, segments: Array,
+    deltas: Array, cell_reach: Array, n_unique: Array, targets: Array,
+    kind: int, hf: Array, base: Array, way: Array, narrow: Array, window_dist: Array, ks: Array,
+    cache: dict[int, int], use_cache: bool, cost: dict[int, int],
+    node_state: Array, node_parent: Array, node_g: Array, node_op: Array,
+    hh: Array, ht: Array, hn: Array, count: Array, best_h: Array,
+    exp_number: Array, exp_bits: Array, exp_near: Array, scratch: Array,
+) -> int:  # fmt: skip
+    """``run``'s loop."""
     nx, ny = dims[0], dims[1]
     plane = nx * ny
     n_motions = segments.shape[1] - 1
     cap = node_state.shape[0]
-    scratch = np.empty((3, ux.shape[1]))  # a state's clearance at its bin's distinct points
     done = 0
     while count[HEAP] > 0:
         if done >= chunk:

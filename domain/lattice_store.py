@@ -1,8 +1,9 @@
 """The compiled search's store of per-state numbers (a numba typed dict) and its bulk edits.
 
 The motion cache keeps the free motions of the states searched (a bitmask each) between
-replans; the compiled search reads and adds to them in its loop. Reading the keys or dropping
-many from Python one at a time costs microseconds each, so both are compiled too.
+replans; the compiled search reads and adds to them in its loop. Forgetting the states near a
+change is compiled too: from Python a typed dict costs microseconds per key (and compiles its
+methods on first use in every process).
 """
 
 from __future__ import annotations
@@ -28,38 +29,24 @@ def new_store() -> Any:
     return Dict.empty(key_type=types.int64, value_type=types.int64)
 
 
-def store_size(store: Any) -> int:
-    """How many states a store holds (0 for none); compiled: ``len`` of a typed dict from
-    Python compiles on first use in every process."""
-    return 0 if store is None else int(_size(store))
-
-
-def store_keys(store: Any) -> NDArray[np.int64]:
-    """The state numbers a store holds."""
-    out = np.empty(store_size(store), dtype=np.int64)
-    _keys(store, out)
-    return out
-
-
-def store_drop(store: Any, numbers: NDArray[np.int64]) -> None:
-    """Forget these state numbers (those it holds)."""
-    if numbers.size:
-        _drop(store, np.ascontiguousarray(numbers, dtype=np.int64))
+def store_forget(store: Any, near: NDArray[np.bool_], i0: int, j0: int, plane: int, ny: int) -> int:
+    """Forget the states whose cell ``(i, j)`` lies where ``near`` (a window of cells whose
+    first is ``(i0, j0)``) holds; how many states the store keeps."""
+    return int(_forget(store, np.ascontiguousarray(near), i0, j0, plane, ny))
 
 
 @_jit
-def _size(store: Any) -> int:  # pragma: no cover - compiled
+def _forget(  # pragma: no cover - compiled
+    store: Any, near: NDArray[np.bool_], i0: int, j0: int, plane: int, ny: int
+) -> int:
+    drop = np.empty(len(store), dtype=np.int64)
+    n = 0
+    for number in store:
+        cell = number % plane
+        li, lj = cell // ny - i0, cell % ny - j0
+        if 0 <= li < near.shape[0] and 0 <= lj < near.shape[1] and near[li, lj]:
+            drop[n] = number
+            n += 1
+    for q in range(n):
+        del store[drop[q]]
     return len(store)
-
-
-@_jit
-def _keys(store: Any, out: NDArray[np.int64]) -> None:  # pragma: no cover - compiled
-    for n, key in enumerate(store.keys()):
-        out[n] = key
-
-
-@_jit
-def _drop(store: Any, numbers: NDArray[np.int64]) -> None:  # pragma: no cover - compiled
-    for key in numbers:
-        if key in store:
-            del store[key]
