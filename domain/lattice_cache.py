@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 from itertools import islice
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -20,11 +19,11 @@ from scipy import ndimage
 
 from domain.lattice import LatticeGrid, MotionTable
 from domain.lattice_states import LatticeState, StatePool
-from domain.lattice_store import new_store, store_forget
+from domain.lattice_store import Store
 from sim.robot import Array
 
 MOVES_LIMIT = 10_000  # states whose successors are kept (~5-10 KB each); then the older half goes
-COMPILED_LIMIT = 1_000_000  # states whose free motions the compiled store keeps (~60 B each);
+COMPILED_LIMIT = 1_000_000  # states whose free motions the compiled store keeps (~32-64 B each);
 # then it starts afresh (what it forgets is checked again when met: no plan changes)
 Moves = tuple[list[tuple[Operator, LatticeState]], list[tuple[int, str]]]  # successors, edges
 
@@ -52,8 +51,7 @@ class MotionCache:
         self.moves: dict[int, Moves] = {}
         # The same verdicts for the compiled search (domain/lattice_search.py): state number ->
         # free motions as a bitmask, in a numba typed dict (made on first use).
-        self._compiled: Any = None
-        self.compiled_size = 0  # states in it (as the last search or forget left it)
+        self._compiled: Store | None = None
         self.moves_limit = moves_limit
         self.states = states if states is not None else StatePool()
         # Clearance above this decides nothing: every motion needs less at every point.
@@ -74,7 +72,7 @@ class MotionCache:
         if old is None or not (self.free or self._compiled is not None):
             self.free.clear()
             self.moves.clear()
-            self._compiled, self.compiled_size = None, 0
+            self._compiled = None
             return
         changed = np.abs(capped - old) > 1e-9
         if np.any(changed):
@@ -125,15 +123,13 @@ class MotionCache:
                 del self.free[number]
                 moves.pop(number, None)
         if self._compiled is not None:  # the same states, in the compiled store
-            self.compiled_size = store_forget(
-                self._compiled, near, origin[0] - pad, origin[1] - pad, plane, ny
-            )
+            self._compiled.forget_near(near, origin[0] - pad, origin[1] - pad, plane, ny)
 
-    def compiled_free(self) -> Any:
-        """The free motions for the compiled search: a numba typed dict of state number ->
-        bitmask (bit ``m``: motion ``m``), kept and forgotten as ``free`` is."""
-        if self._compiled is None or self.compiled_size >= self.compiled_limit:
-            self._compiled, self.compiled_size = new_store(), 0
+    def compiled_free(self) -> Store:
+        """The free motions for the compiled search: state number -> bitmask (bit ``m``:
+        motion ``m``), kept and forgotten as ``free`` is."""
+        if self._compiled is None or len(self._compiled) >= self.compiled_limit:
+            self._compiled = Store()
         return self._compiled
 
     def keep_moves(self, number: int, moves: Moves) -> None:

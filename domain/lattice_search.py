@@ -26,7 +26,7 @@ from domain import lattice_search_kernel as kernel
 from domain.grid_clearance import ClearanceGrids, grids_of, has_grids
 from domain.lattice import MotionTable
 from domain.lattice_heuristic import LatticeHeuristic
-from domain.lattice_store import new_store
+from domain.lattice_store import Store
 from domain.lattice_task import LatticeTask
 from domain.occupancy_kernel import AVAILABLE
 from domain.pyperplan_adapter import stop_if_due
@@ -97,12 +97,13 @@ def kernel_table(table: MotionTable, margin: float) -> KernelTable:
 
 def applies(task: LatticeTask, heuristic: Any) -> bool:
     """Whether the compiled search can run this task with this heuristic (else pyperplan's)."""
-    from domain.lattice_repair import RejoinHeuristic  # (the repair imports this module)
+    from domain.lattice_repair import RejoinHeuristic, RejoinTask  # (it imports this module)
 
+    # Exactly these types: a subclass may hand out other successors or heuristic values.
     return (
         AVAILABLE
-        and type(heuristic) in (LatticeHeuristic, RejoinHeuristic)
-        and isinstance(task, LatticeTask)
+        and (type(task), type(heuristic))
+        in ((LatticeTask, LatticeHeuristic), (RejoinTask, RejoinHeuristic))
         and len(task.table.motions) <= MAX_MOTIONS
         and has_grids(task.clearance)
     )
@@ -116,6 +117,20 @@ class _Path:
 
     def extract_solution(self) -> list[Operator]:
         return list(self.operators)
+
+
+_GROWN = [
+    "node_state",
+    "node_parent",
+    "node_g",
+    "node_op",
+    "hh",
+    "ht",
+    "hn",
+    "exp_number",
+    "exp_bits",
+    "exp_near",
+]
 
 
 class _Search:
@@ -135,14 +150,18 @@ class _Search:
         self.count = np.zeros(kernel.COUNTERS, dtype=np.int64)
         self.best_h = np.array([math.inf])
 
+    def full(self, more: int) -> bool:
+        """Whether the nodes of one more expansion (``more`` successors) or its record would
+        not fit."""
+        count = self.count
+        return bool(
+            count[kernel.NODES] + more + 1 > len(self.node_state)
+            or count[kernel.EXPANDED] >= len(self.exp_number)
+        )
+
     def grow(self) -> None:
         """Twice the room for nodes and for expanded states."""
-        for name in ("node_state", "node_parent", "node_g", "node_op", "hh", "ht", "hn"):
-            old = getattr(self, name)
-            new = np.empty(2 * len(old), dtype=old.dtype)
-            new[: len(old)] = old
-            setattr(self, name, new)
-        for name in ("exp_number", "exp_bits", "exp_near"):
+        for name in _GROWN:
             old = getattr(self, name)
             new = np.empty(2 * len(old), dtype=old.dtype)
             new[: len(old)] = old
@@ -205,8 +224,8 @@ def search(task: LatticeTask, heuristic: Any) -> list[Operator] | None:
     kind, hf, (base, way, narrow, window_dist, ks) = _heuristic_inputs(task, heuristic)
     cache = task.cache
     use_cache = cache is not None
-    store = cache.compiled_free() if cache is not None else new_store()
-    cost = new_store()
+    store = cache.compiled_free() if cache is not None else Store()
+    cost = Store()
     s = _Search(FIRST_NODES)
     start = task.start_number
     budget = int(task.budget) if math.isfinite(task.budget) else _NO_BUDGET
@@ -218,12 +237,16 @@ def search(task: LatticeTask, heuristic: Any) -> list[Operator] | None:
                 CHUNK, budget, start, start_bits, near_states, dims, gf, at_centres, *world,
                 kt.ux, kt.uy, kt.inverse, kt.needs, kt.segments, kt.deltas, kt.cell_reach,
                 kt.n_unique,
-                task.motion_targets, kind, hf, base, way, narrow, window_dist, ks, store, use_cache,
-                cost, s.node_state, s.node_parent, s.node_g, s.node_op, s.hh, s.ht, s.hn,
+                task.motion_targets, kind, hf, base, way, narrow, window_dist, ks, store.keys, store.values,
+                store.size, use_cache, cost.keys, cost.values, cost.size, s.node_state, s.node_parent, s.node_g, s.node_op, s.hh, s.ht, s.hn,
                 s.count, s.best_h, s.exp_number, s.exp_bits, s.exp_near,
             )  # fmt: skip
             if status == kernel.NEED_ROOM:
-                s.grow()
+                n_motions = len(table.motions)
+                if s.full(n_motions):
+                    s.grow()
+                cost.room(n_motions + 2)
+                store.room(1)
             elif status == kernel.OVER_BUDGET:
                 stop_if_due(task.cancel, task.deadline, True)
             elif status == kernel.SOLVED:
@@ -231,8 +254,6 @@ def search(task: LatticeTask, heuristic: Any) -> list[Operator] | None:
             elif status == kernel.EXHAUSTED:
                 return None
     finally:
-        if cache is not None:
-            cache.compiled_size = int(s.count[kernel.STORED])
         task.expansions = int(s.count[kernel.EXPANSIONS])
         n = int(s.count[kernel.EXPANDED])
         task.expanded(s.exp_number[:n].copy(), s.exp_bits[:n].copy(), s.exp_near[:n].copy())

@@ -8,7 +8,8 @@ heuristic value, then by when a node was pushed), the same successors in the sam
 moves left out), the same heuristic values (``LatticeHeuristic`` or the repair's
 ``RejoinHeuristic``, with CPython's ``math.remainder``), the same expansion count and budget.
 A state's free motions are a bitmask (bit ``m``: motion ``m``), looked up in or added to the
-motion cache's compiled store. The Python side (domain/lattice_search.py) prepares the arrays,
+motion cache's compiled store; the least moves to each state met are kept in a second store
+(domain/lattice_store.py; a visited goal's state under ``-(number + 1)``). The Python side (domain/lattice_search.py) prepares the arrays,
 grows them when the kernel asks, and checks the deadline and cancellation between chunks.
 """
 
@@ -19,13 +20,14 @@ import math
 import numpy as np
 
 from domain.lattice_motion_kernel import free_bits
+from domain.lattice_store import MAX_LOAD, put, slot
 from domain.occupancy_kernel import _jit
 from sim.robot import Array
 
 # Counters (``count``): nodes made, heap size, pushes (the tiebreaker), expansions, best node,
-# states expanded (recorded), the goal node, states in the motion cache's store.
-NODES, HEAP, TIE, EXPANSIONS, BEST, EXPANDED, GOAL, STORED = range(8)
-COUNTERS = 8
+# states expanded (recorded), the goal node.
+NODES, HEAP, TIE, EXPANSIONS, BEST, EXPANDED, GOAL = range(7)
+COUNTERS = 7
 # What a chunk ended with.
 RUNNING, SOLVED, EXHAUSTED, OVER_BUDGET, NEED_ROOM = range(5)
 # Heuristics: the planner's lattice heuristic, the repair's rejoin heuristic.
@@ -168,9 +170,13 @@ def run(  # pragma: no cover - compiled
     narrow: Array,
     window_dist: Array,
     ks: Array,
-    cache: dict[int, int],
+    ck: Array,
+    cv: Array,
+    cs: Array,
     use_cache: bool,
-    cost: dict[int, int],
+    tk: Array,
+    tv: Array,
+    ts: Array,
     node_state: Array,
     node_parent: Array,
     node_g: Array,
@@ -193,17 +199,16 @@ def run(  # pragma: no cover - compiled
         h = heuristic(start, kind, dims, hf, base, way, narrow, window_dist, ks)
         node_state[0], node_parent[0], node_g[0], node_op[0] = start, -1, 0, -2
         best_h[0], count[BEST] = h, 0
-        cost[start] = 0
+        put(tk, tv, ts, start, 0)
         count[NODES] = 1
         count[HEAP] = _push(hh, ht, hn, 0, h, 0, 0)
     status = _expand(
         chunk, budget, start, start_bits, near_states, dims, gf, at_centres, values, near,
         goals, geo, ux, uy, inverse, needs, segments, deltas, cell_reach, n_unique, targets,
-        kind, hf, base, way, narrow, window_dist, ks, cache, use_cache, cost, node_state,
+        kind, hf, base, way, narrow, window_dist, ks, ck, cv, cs, use_cache, tk, tv, ts, node_state,
         node_parent, node_g, node_op, hh, ht, hn, count, best_h, exp_number, exp_bits,
         exp_near, scratch,
     )  # fmt: skip
-    count[STORED] = len(cache)
     return int(status)
 
 
@@ -214,7 +219,7 @@ def _expand(  # pragma: no cover - compiled
     geo: Array, ux: Array, uy: Array, inverse: Array, needs: Array, segments: Array,
     deltas: Array, cell_reach: Array, n_unique: Array, targets: Array,
     kind: int, hf: Array, base: Array, way: Array, narrow: Array, window_dist: Array, ks: Array,
-    cache: dict[int, int], use_cache: bool, cost: dict[int, int],
+    ck: Array, cv: Array, cs: Array, use_cache: bool, tk: Array, tv: Array, ts: Array,
     node_state: Array, node_parent: Array, node_g: Array, node_op: Array,
     hh: Array, ht: Array, hn: Array, count: Array, best_h: Array,
     exp_number: Array, exp_bits: Array, exp_near: Array, scratch: Array,
@@ -228,12 +233,17 @@ def _expand(  # pragma: no cover - compiled
     while count[HEAP] > 0:
         if done >= chunk:
             return RUNNING
-        if count[NODES] + n_motions + 1 > cap or count[EXPANDED] >= exp_number.shape[0]:
+        if (
+            count[NODES] + n_motions + 1 > cap
+            or count[EXPANDED] >= exp_number.shape[0]
+            or ts[0] + n_motions + 2 > MAX_LOAD * tk.shape[0]
+            or cs[0] + 1 > MAX_LOAD * ck.shape[0]
+        ):
             return NEED_ROOM
         node = _pop(hh, ht, hn, count[HEAP])
         count[HEAP] -= 1
         state = node_state[node]
-        if cost[state] != node_g[node]:
+        if tv[slot(tk, state)] != node_g[node]:
             continue  # reached in fewer moves since it was pushed
         if state < 0:
             count[GOAL] = node
@@ -245,8 +255,8 @@ def _expand(  # pragma: no cover - compiled
         k, cell = state // plane, state % plane
         if state == start:
             bits = start_bits
-        elif use_cache and state in cache:
-            bits = cache[state]
+        elif use_cache and ck[slot(ck, state)] == state:
+            bits = cv[slot(ck, state)]
         else:
             bits = free_bits(
                 state,
@@ -268,7 +278,7 @@ def _expand(  # pragma: no cover - compiled
                 scratch,
             )
             if use_cache:
-                cache[state] = bits
+                put(ck, cv, cs, state, bits)
         at = np.searchsorted(near_states, state)
         is_near = at < near_states.shape[0] and near_states[at] == state
         e = count[EXPANDED]
@@ -286,10 +296,11 @@ def _expand(  # pragma: no cover - compiled
                 -1,
             )
             # (its heuristic answers 0 without taking it for the best node)
-            if g < cost.get(visited, g + 1):
+            at = slot(tk, visited)
+            if tk[at] != visited or g < tv[at]:
                 count[TIE] += 1
                 count[HEAP] = _push(hh, ht, hn, count[HEAP], 0.0, count[TIE], child)
-                cost[visited] = g
+                put(tk, tv, ts, visited, g)
         for m in range(n_motions):
             if not (bits >> m) & 1:
                 continue
@@ -300,9 +311,10 @@ def _expand(  # pragma: no cover - compiled
             bi, bj = bc // ny, bc % ny
             if not (dims[3] <= bi < dims[5] and dims[4] <= bj < dims[6]):
                 continue  # outside the repair's window
-            if cost.get(b, g + 1) <= g:
+            at = slot(tk, b)
+            if tk[at] == b and tv[at] <= g:
                 continue  # already reached in as few moves: the search would drop it
-            cost[b] = g
+            put(tk, tv, ts, b, g)
             child = count[NODES]
             count[NODES] += 1
             node_state[child], node_parent[child], node_g[child], node_op[child] = (
