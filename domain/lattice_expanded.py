@@ -29,29 +29,30 @@ def fill_expanded(
 ) -> None:
     """Add to ``edges`` and ``near_states`` what expanding ``numbers`` (in order, with free
     motions ``bits``, bit ``m`` for motion ``m``, and ``near`` the goal) hands out: every move
-    that leaves the state (inside the task's window, if it has one), by motion index."""
-    names, targets, ny = task.table.names, task.motion_targets, task.grid.ny
+    that leaves the state (inside the task's window, if it has one), by motion index. A state
+    expanded again keeps its first successors (as ``get_successor_states`` does)."""
+    near_states.update(numbers[near].tolist())
+    _, first = np.unique(numbers, return_index=True)
+    first = np.sort(first)
+    first = first[[n not in edges for n in numbers[first].tolist()]]
+    numbers, bits = numbers[first], bits[first]
+    names = np.array(task.table.names, dtype=object)
+    ny = task.grid.ny
     plane = task.grid.nx * ny
-    shifts = np.arange(len(names), dtype=np.int64)
-    window = task.window
-    for number, mask, is_near in zip(numbers.tolist(), bits.tolist(), near.tolist(), strict=True):
-        if is_near:
-            near_states.add(number)
-        if number in edges:
-            continue
-        k, cell = divmod(number, plane)
-        ms = np.flatnonzero((mask >> shifts) & 1)
-        out = []
-        for b, m in zip((targets[k][ms] + cell).tolist(), ms.tolist(), strict=True):
-            if b == number:
-                continue
-            if window is not None:
-                i, j = divmod(b % plane, ny)
-                wi, wj = window
-                if not (wi.start <= i < wi.stop and wj.start <= j < wj.stop):
-                    continue
-            out.append((b, names[m]))
-        edges[number] = out
+    k, cell = np.divmod(numbers, plane)
+    free = ((bits[:, None] >> np.arange(len(names), dtype=np.int64)) & 1).astype(bool)
+    after = task.motion_targets[k] + cell[:, None]  # [S, M] next state numbers
+    free &= after != numbers[:, None]  # a move that stays is no successor
+    if task.window is not None:
+        (wi, wj), (i, j) = task.window, np.divmod(after % plane, ny)
+        free &= (i >= wi.start) & (i < wi.stop) & (j >= wj.start) & (j < wj.stop)
+    rows, cols = np.nonzero(free)  # row by row, by motion index
+    pairs = list(zip(after[rows, cols].tolist(), names[cols].tolist(), strict=True))
+    ends = np.cumsum(free.sum(axis=1)).tolist()
+    start = 0
+    for number, end in zip(numbers.tolist(), ends, strict=True):
+        edges[number] = pairs[start:end]
+        start = end
 
 
 def near_goal_states(task: LatticeTask) -> NDArray[np.int64]:
