@@ -33,7 +33,7 @@ from domain.pyperplan_adapter import stop_if_due
 from sim.robot import Array
 
 CHUNK = 256  # expansions between checks of the deadline and the cancel flag
-FIRST_NODES = 4096  # room for search nodes at first (doubled when full)
+FIRST_NODES = 8192  # room for search nodes at first (doubled when full)
 MAX_MOTIONS = 62  # motions per state a bitmask holds
 _NO_BUDGET = 2**62
 
@@ -110,13 +110,14 @@ def applies(task: LatticeTask, heuristic: Any) -> bool:
 
 
 class _Path:
-    """A search node of the compiled search as pyperplan's ``SearchNode`` is read: its path."""
+    """A node of the compiled search as pyperplan's ``SearchNode`` is read: its path (built
+    when asked for: only a partial plan reads it)."""
 
-    def __init__(self, operators: list[Operator]) -> None:
-        self.operators = operators
+    def __init__(self, search: _Search, task: LatticeTask, node: int) -> None:
+        self._search, self._task, self._node = search, task, node
 
     def extract_solution(self) -> list[Operator]:
-        return list(self.operators)
+        return self._search.operators(self._task, self._node)
 
 
 _GROWN = [
@@ -225,7 +226,7 @@ def search(task: LatticeTask, heuristic: Any) -> list[Operator] | None:
     cache = task.cache
     use_cache = cache is not None
     store = cache.compiled_free() if cache is not None else Store()
-    cost = Store()
+    cost = Store(FIRST_NODES)
     s = _Search(FIRST_NODES)
     start = task.start_number
     budget = int(task.budget) if math.isfinite(task.budget) else _NO_BUDGET
@@ -259,7 +260,7 @@ def search(task: LatticeTask, heuristic: Any) -> list[Operator] | None:
         task.expanded(s.exp_number[:n].copy(), s.exp_bits[:n].copy(), s.exp_near[:n].copy())
         if isinstance(heuristic, LatticeHeuristic):
             best = int(s.count[kernel.BEST])
-            heuristic.best = (float(s.best_h[0]), _Path(s.operators(task, best)))
+            heuristic.best = (float(s.best_h[0]), _Path(s, task, best))
 
 
 def _world_inputs(grids: ClearanceGrids) -> tuple[Array, Array, Array, Array]:
