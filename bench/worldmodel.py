@@ -2,17 +2,21 @@
 
 A 10 m x 10 m arena at 0.05 m cells (200 x 200), a few obstacles, the project's sensor layout
 (forward IR cone 10°/0.8 m, ring of 8 rays/1.0 m, σ = 0.02 m). Targets: < 0.3 ms per beam in an
-update, < 5 ms for a full clearance recompute. Prints figures, never asserts.
+update, < 5 ms for a full clearance recompute. Also the suspected tier as the plan guard reads
+it: an update then a read of the tier's inflated clearance at a plan's worth of points, per
+tick (run it on another checkout to compare: ``cd OTHER && python -c "import runpy, sys;
+runpy.run_path('THIS/bench/worldmodel.py', run_name='__main__')"``). Prints figures, never
+asserts.
 """
 
 from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 
 import numpy as np
 
-from bench.sim import best_of
 from domain.worldmodel import RangeObservation, WorldModel
 from sim.obstacles import Circle, rectangle, unit_vectors
 from sim.world import Bounds, World, footprint
@@ -50,6 +54,37 @@ def readings(world: World, ticks: int, rng: np.random.Generator) -> list[list[Ra
     return out
 
 
+def best_of(fn: Callable[[], object], repeat: int) -> float:
+    """The shortest of ``repeat`` timed calls (s)."""
+    best = math.inf
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def suspected_tier(world: World, ticks: list[list[RangeObservation]]) -> None:
+    """An update, then the suspected tier's clearance at 200 points along the way, per tick,
+    with a contact and a suspected surface on the way: best of 3 runs."""
+    pts = np.random.default_rng(1).uniform(-4, 4, (200, 2))
+
+    def run() -> None:
+        model = WorldModel(world.bounds)
+        for k, tick in enumerate(ticks):
+            model.integrate(tick)
+            if k == len(ticks) // 3:
+                model.add_contact((1.0, -0.1))
+                model.add_suspected([(1.0 + 0.05 * i, -0.1) for i in range(6)])
+            model.inflated_clearance_at(pts, 0.05, 0.1, suspected=True)
+            model.inflated_clearance_at(pts, 0.05, 0.02, suspected=True)
+
+    per_tick = best_of(run, 3) / len(ticks)
+    print(
+        f"update + suspected tier read (2 inflations x 200 points): {per_tick * 1e6:.0f} µs per tick"
+    )
+
+
 def main() -> None:
     world = arena()
     rng = np.random.default_rng(0)
@@ -66,6 +101,7 @@ def main() -> None:
         f"{per_tick / beams * 1e3:.3f} ms per beam (target < 0.3)"
     )
     print(f"  sensed cells occupied: {int(model.sensed_occupied().sum())}, version {model.version}")
+    suspected_tier(world, ticks)
 
     def recompute() -> None:
         model.version += 1  # force the cache out, as a real change would

@@ -22,8 +22,37 @@ from scipy import ndimage
 from scipy.sparse import coo_matrix
 from scipy.sparse.csgraph import connected_components
 
+from domain import reach_kernel
 from domain.lattice import Key, LatticeGrid, MotionTable
 from sim.robot import Array
+
+
+def body_rows(
+    grid: LatticeGrid, table: MotionTable, margin: float
+) -> tuple[NDArray[np.int64], Array, NDArray[np.int64]]:
+    """Per bin, the resting body's distinct cell offsets (``[K, U, 2]``) and the clearance each
+    needs there (``[K, U]``: the largest need rounded into it + ``margin`` - half a cell
+    diagonal), and how many rows each bin uses (-1: the body reaches past any grid)."""
+    r = grid.settings.resolution
+    pad = max(1, math.ceil(table.geometry.body_length / r) + 2)
+    slack = r * math.sqrt(0.5)
+    K = grid.settings.orientations
+    rows = []
+    for k in range(K):
+        shifts = np.rint(table.body_points[k] / r).astype(np.int64)
+        # One comparison per distinct cell shift, against the largest need rounded into it.
+        unique, inverse = np.unique(shifts, axis=0, return_inverse=True)
+        needs = np.full(len(unique), -np.inf)
+        np.maximum.at(needs, inverse.ravel(), table.body_needs[k])
+        rows.append((unique, needs + margin - slack))
+    width = max(len(u) for u, _ in rows)
+    shifts_out = np.zeros((K, width, 2), dtype=np.int64)
+    thresholds = np.full((K, width), -np.inf)
+    counts = np.empty(K, dtype=np.int64)
+    for k, (unique, need) in enumerate(rows):
+        shifts_out[k, : len(unique)], thresholds[k, : len(unique)] = unique, need
+        counts[k] = -1 if np.any(np.abs(unique) >= pad) else len(unique)
+    return shifts_out, thresholds, counts
 
 
 def free_configurations(
@@ -37,76 +66,115 @@ def free_configurations(
     pad = max(1, math.ceil(table.geometry.body_length / r) + 2)
     padded = np.full((nx + 2 * pad, ny + 2 * pad), -np.inf)
     padded[pad : pad + nx, pad : pad + ny] = clear
-    slack = r * math.sqrt(0.5)
-    K = grid.settings.orientations
-    free = np.ones((K, nx, ny), dtype=bool)
-    for k in range(K):
-        shifts = np.rint(table.body_points[k] / r).astype(np.int64)
-        # One comparison per distinct cell shift, against the largest need rounded into it.
-        unique, inverse = np.unique(shifts, axis=0, return_inverse=True)
-        needs = np.full(len(unique), -np.inf)
-        np.maximum.at(needs, inverse.ravel(), table.body_needs[k])
-        for (di, dj), need in zip(unique, needs, strict=True):
-            if abs(di) >= pad or abs(dj) >= pad:
-                free[k] = False
-                break
+    shifts, thresholds, counts = body_rows(grid, table, margin)
+    free = np.ones((grid.settings.orientations, nx, ny), dtype=bool)
+    for k, n in enumerate(counts.tolist()):
+        if n < 0:
+            free[k] = False
+            continue
+        for (di, dj), need in zip(shifts[k, :n], thresholds[k, :n], strict=True):
             window = padded[pad + di : pad + di + nx, pad + dj : pad + dj + ny]
-            free[k] &= window >= need + margin - slack
+            free[k] &= window >= need
     return free
 
 
 class Reachability:
-    """The components of one lattice's free configurations, asked for many starts and goals."""
+    """Answers "can the body get from this start to that goal at all?" for one lattice's free
+    configurations: by the compiled flood fill of the start's component (stopping at the
+    first configuration on the goal) when kernels are available, else by labelling every
+    component once (``scipy.ndimage.label``) and comparing."""
 
     def __init__(
         self, grid: LatticeGrid, table: MotionTable, at_centres: Array, margin: float
     ) -> None:
-        self.grid, self.table = grid, table
-        self.free = free_configurations(grid, table, at_centres, margin)
-        structure = np.zeros((3, 3, 3), dtype=bool)
-        structure[1] = True  # the 8 neighbouring cells at one orientation ...
-        structure[0, 1, 1] = structure[2, 1, 1] = True  # ... and one orientation step in place
-        self.labels, count = ndimage.label(self.free, structure=structure)
-        # Orientation wraps round: join the components that meet across bins K-1 and 0.
-        both = self.free[0] & self.free[-1]
-        a, b = self.labels[0][both], self.labels[-1][both]
-        ids = np.arange(count + 1)
-        joined = coo_matrix(
-            (np.ones(a.size + ids.size), (np.r_[a, ids], np.r_[b, ids])),
-            shape=(count + 1, count + 1),
-        )
-        self.component = connected_components(joined, directed=False)[1]
+        self.grid, self.table, self.margin = grid, table, margin
+        self.at_centres = at_centres
+        self.clear = np.ascontiguousarray(at_centres.reshape(grid.nx, grid.ny), dtype=float)
+        self.shifts, self.thresholds, self.counts = body_rows(grid, table, margin)
+        self._labels: tuple[NDArray[np.bool_], NDArray[np.int32], NDArray[np.int32]] | None = None
 
-    def reaches(self, start: Key, goal: tuple[float, float], reach: float) -> bool:
+    def reaches(
+        self, start: Key, goal: tuple[float, float], reach: float, compiled: bool | None = None
+    ) -> bool:
         """``False`` only when no lattice plan can bring the head within ``reach`` of ``goal``
         from ``start`` (``True`` when one may, or when no configuration at the start passes
-        the test: a robot touching something)."""
-        mine = self._components_at(start)
-        if mine.size == 0:
+        the test: a robot touching something). ``compiled``: force the flood fill (True) or
+        the labelling (False); by default the flood fill when kernels are available."""
+        starts = self._starts(start)
+        if starts.size == 0:
             return True
         grid = self.grid
+        limit = reach + grid.settings.resolution * math.sqrt(0.5)
+        if compiled if compiled is not None else reach_kernel.AVAILABLE:
+            centres = grid.centres.reshape(grid.nx, grid.ny, 2)
+            return reach_kernel.flood_reaches(
+                self.clear,
+                self.shifts,
+                self.thresholds,
+                self.counts,
+                np.asarray(self.table.heads, dtype=float),
+                np.ascontiguousarray(centres[:, 0, 0]),
+                np.ascontiguousarray(centres[0, :, 1]),
+                goal,
+                limit,
+                starts,
+            )
+        return self._labelled_reaches(starts, goal, limit)
+
+    def _labelled_reaches(
+        self, starts: NDArray[np.int64], goal: tuple[float, float], limit: float
+    ) -> bool:
+        free, labels, component = self._labelled()
+        grid = self.grid
+        bins, cells = np.divmod(starts, grid.nx * grid.ny)
+        mine = np.unique(component[labels[bins, *np.divmod(cells, grid.ny)]])
         centres = grid.centres.reshape(grid.nx, grid.ny, 2)
-        slack = grid.settings.resolution * math.sqrt(0.5)
         for k, (hx, hy) in enumerate(self.table.heads):
             near = np.hypot(centres[..., 0] + hx - goal[0], centres[..., 1] + hy - goal[1])
-            mask = (near <= reach + slack) & self.free[k]
-            if np.any(np.isin(self.component[self.labels[k][mask]], mine)):
+            mask = (near <= limit) & free[k]
+            if np.any(np.isin(component[labels[k][mask]], mine)):
                 return True
         return False
 
-    def _components_at(self, start: Key) -> NDArray[np.intp]:
-        """The components of the free configurations at ``start`` or, when the snapped state
-        itself fails the test (the robot stands closer to something than the margin), next to
-        it: one cell and one orientation step around, where the real pose lies."""
+    def _labelled(self) -> tuple[NDArray[np.bool_], NDArray[np.int32], NDArray[np.int32]]:
+        """Every free configuration's component (built on the first question)."""
+        if self._labels is None:
+            free = free_configurations(self.grid, self.table, self.at_centres, self.margin)
+            structure = np.zeros((3, 3, 3), dtype=bool)
+            structure[1] = True  # the 8 neighbouring cells at one orientation ...
+            structure[0, 1, 1] = structure[2, 1, 1] = True  # ... and one orientation step in place
+            labels, count = ndimage.label(free, structure=structure)
+            # Orientation wraps round: join the components that meet across bins K-1 and 0.
+            both = free[0] & free[-1]
+            a, b = labels[0][both], labels[-1][both]
+            ids = np.arange(count + 1)
+            joined = coo_matrix(
+                (np.ones(a.size + ids.size), (np.r_[a, ids], np.r_[b, ids])),
+                shape=(count + 1, count + 1),
+            )
+            self._labels = (free, labels, connected_components(joined, directed=False)[1])
+        return self._labels
+
+    def _starts(self, start: Key) -> NDArray[np.int64]:
+        """The free configurations at ``start`` or, when the snapped state itself fails the
+        test (the robot stands closer to something than the margin), next to it: one cell and
+        one orientation step around, where the real pose lies (numbers ``(k * nx + i) * ny +
+        j``)."""
         si, sj, sk = start
-        K, nx, ny = self.free.shape
+        grid = self.grid
+        K, nx, ny = grid.settings.orientations, grid.nx, grid.ny
         found = []
         for dk in (0, -1, 1):
             for di in (0, -1, 1):
                 for dj in (0, -1, 1):
                     k, i, j = (sk + dk) % K, si + di, sj + dj
-                    if 0 <= i < nx and 0 <= j < ny and self.free[k, i, j]:
-                        found.append(self.component[self.labels[k, i, j]])
+                    if 0 <= i < nx and 0 <= j < ny and self._free(k, i, j):
+                        found.append((k * nx + i) * ny + j)
             if found and dk == 0:
                 break  # the start's own orientation decides when it can
-        return np.unique(np.asarray(found, dtype=np.intp))
+        return np.asarray(found, dtype=np.int64)
+
+    def _free(self, k: int, i: int, j: int) -> bool:
+        return reach_kernel.configuration_free(
+            self.clear, self.shifts, self.thresholds, self.counts, k, i, j
+        )

@@ -23,7 +23,9 @@ from domain.lattice import LatticeSettings, MotionTable, compose, motion_table, 
 from domain.lattice_pddl import lattice_domain_text
 from domain.lattice_plan import LatticeAction, LatticePlan
 from domain.lattice_planner import LatticePlanner
+from domain.lattice_repair import leg_reach
 from domain.lattice_task import LatticeTask, primitive_name
+from domain.plan_guard import Lookahead
 from domain.pyperplan_adapter import CancelFlag
 from domain.reshape import reshape_clear, reshape_duration
 from domain.strategy import Command, Replanned, Situation
@@ -73,6 +75,7 @@ class NavigationStrategy:
         self.running: Running | None = None
         self.arrive_tries = 0
         self._checked: tuple[int, int] = (-1, -1)  # (world version, plan index) last checked
+        self._lookahead = Lookahead(LOOKAHEAD)  # the next moves' sweeps the guard checks
         self.clearance: Any = None  # what plans are checked against (sensed cells inflated)
         self.backoff: list[Primitive] = []
         self.recoveries = 0
@@ -143,11 +146,14 @@ class NavigationStrategy:
         first = plan.actions[0] if plan.actions else None
         reshaped = s.shape if first is not None and first.name == "reshape" else None
         lattice_shape = table.shape if table is not None else s.shape
-        exported = plan.problem(lattice_shape, reshaped)
-        problem = exported.text() if exported is not None else ""
         self._checked = (s.world.version, 0)
+
+        def export() -> str:  # the plan's graph is not changed after this replan
+            exported = plan.problem(lattice_shape, reshaped)
+            return exported.text() if exported is not None else ""
+
         return Replanned(
-            plan.solved, plan.reason, record, lattice_domain_text(), problem, plan.pddl_plan
+            plan.solved, plan.reason, record, lattice_domain_text(), export, plan.pddl_plan
         )
 
     def _plan(
@@ -205,6 +211,8 @@ class NavigationStrategy:
                 pose, table.joints, joints, clearance, self.settings.margin
             ):
                 continue
+            if not self._may_reach(other, s, pose):
+                continue  # not even the loosest tier lets this body through: skip its searches
             plan = self._plan(other, s, pose, cancel)
             if not plan.solved or plan.partial:
                 continue  # change shape only for a way all the way there
@@ -221,6 +229,17 @@ class NavigationStrategy:
             return other
         return None
 
+    def _may_reach(self, table: MotionTable, s: Situation, pose: Any) -> bool:
+        """``False`` when no plan of any tier can take this shape's body to every goal: the
+        loosest tier's clearance is at least every other's everywhere, and its free resting
+        configurations do not connect the start with some goal (``lattice_reach``)."""
+        goals = tuple((g.x, g.y) for g in s.goals)
+        loosest = tiers(s.world.any_suspected())[-1]
+        clearance = tier_clearance(s.world, loosest, goals)
+        reach = self.planner.reachability(table, clearance, (s.world.version, loosest, goals))
+        start = self.planner.key_of(table, pose)
+        return all(reach.reaches(start, (g.x, g.y), leg_reach(g)) for g in s.goals)
+
     def broken(self, situation: Situation) -> Trigger | None:
         """Re-check the next moves' swept footprints whenever the world model changed."""
         plan, table = self.plan, self.table
@@ -231,27 +250,13 @@ class NavigationStrategy:
             return None
         self._checked = now
         first = self.index + (1 if self.running is not None else 0)
-        clearance = self.clearance
-        for n, action in enumerate(plan.actions[first : first + LOOKAHEAD], start=first):
-            if action.name != "move" or action.source is None or action.motion is None:
-                continue
-            if n == 0:
-                continue  # out of the start: planned with the start's own (relaxed) margin
-            i, j, k = action.source
-            centre = self.planner.grid.centre(i, j)
-            seg = table.segments[k]
-            m = action.motion
-            lo = int(seg[m])
-            hi = int(seg[m + 1]) if m + 1 < len(seg) else len(table.points[k])
-            ok = (
-                clearance(centre + table.points[k][lo:hi])
-                >= table.needs[k][lo:hi] + self.settings.margin
-            )
-            if not bool(np.all(ok)):
-                return PathBlocked(
-                    action.pddl, (round(float(centre[0]), 3), round(float(centre[1]), 3))
-                )
-        return None
+        blocked = self._lookahead.first_blocked(
+            plan, table, first, self.planner.grid, self.settings.margin, self.clearance
+        )
+        if blocked is None:
+            return None
+        action, (x, y) = blocked
+        return PathBlocked(action.pddl, (round(x, 3), round(y, 3)))
 
     def command(self, situation: Situation) -> Command | Trigger | None:
         plan, table = self.plan, self.table

@@ -31,6 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from domain import occupancy_kernel as kernel
+from domain import occupancy_marking
 from domain.beams import arc_cells, likelihoods, swept_cells
 from domain.grid import Flat, Grid, unique_cells, unique_counts, unique_inverse
 from domain.observation import RangeObservation, range_observations
@@ -105,8 +106,9 @@ class _Updates:
 class SensedLayer:
     """Log-odds occupancy from range readings; ``occupied`` is the thresholded view.
 
-    ``compiled`` picks the numba kernels (``domain.occupancy_kernel``, the default when numba is
-    there) or the numpy path; both give the same layer, value for value.
+    ``compiled`` picks the numba kernels (``domain.occupancy_kernel`` and
+    ``domain.occupancy_marking``, the default when numba is there) or the numpy path; both give
+    the same layer, value for value.
     """
 
     def __init__(
@@ -119,6 +121,8 @@ class SensedLayer:
         self.compiled = kernel.AVAILABLE if compiled is None else compiled and kernel.AVAILABLE
         # the cells the last update lowered (cleared), flat: the only ones whose log-odds fell
         self.lowered: Flat = np.zeros(0, dtype=np.intp)
+        # the cells whose log-odds the last update may have changed (flat, in parts)
+        self.touched: list[Flat] = []
         self._scratch: tuple[Array, ...] | None = None
         # the grid as the kernels take it: (origin x, origin y, resolution), (nx, ny)
         self._geometry = np.array([grid.origin[0], grid.origin[1], grid.resolution])
@@ -154,6 +158,7 @@ class SensedLayer:
         if not rows:
             empty = np.zeros(0, dtype=np.intp)
             self.lowered = empty
+            self.touched = []
             return empty, empty
         if self._scratch is None:
             n = self.grid.nx * self.grid.ny
@@ -199,9 +204,10 @@ class SensedLayer:
             acc,
         )
         self.lowered = cleared
+        self.touched = [cleared, arc]  # every cell a hit could mark is an arc cell
         # The occupancy odds of each arc cell after clearing (numpy's exp, as the numpy path
         # computes it); cells within the noise of known geometry are explained by it.
-        became, ceased = kernel.explain_share_and_mark(
+        became, ceased = occupancy_marking.explain_share_and_mark(
             flat,
             self.occupied.reshape(-1),
             known_clearance.reshape(-1),
@@ -254,6 +260,7 @@ class SensedLayer:
         for obs, cells, likelihood in hits:
             self._share_hit(obs, cells, likelihood, known_clearance.reshape(-1), updates)
         touched.append(self._apply_hits(flat, updates))
+        self.touched = touched
         return self._threshold(unique_cells(np.concatenate(touched)))
 
     def _share_hit(

@@ -217,9 +217,14 @@ class ReactiveStrategy:
         self.steps = steps if result.solved else []
         self.side, self.legs, self.cleared = None, [], 0.0
         reason = "" if result.solved else f"unreachable: boxed in on three sides ({result.reason})"
-        problem = reactive_problem(state, s.shape).text()
+        shape = s.shape
         return Replanned(
-            result.solved, reason, record, reactive_domain().text(), problem, result.plan
+            result.solved,
+            reason,
+            record,
+            reactive_domain().text(),
+            lambda: reactive_problem(state, shape).text(),
+            result.plan,
         )
 
     def broken(self, situation: Situation) -> Trigger | None:

@@ -10,7 +10,9 @@ reactive one (``domain.reactive_strategy``) is the paper's Table 3 domain.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any, Protocol
 
 from domain.goal_order import LegGoal
@@ -47,14 +49,21 @@ class Command:
 
 @dataclass(frozen=True)
 class Replanned:
-    """The outcome of a replan: a plan (``ok``) or the reason there is none."""
+    """The outcome of a replan: a plan (``ok``) or the reason there is none. The PDDL problem
+    is written when first read (``problem_pddl``): a mission that nobody asks for its problems
+    does not pay for writing them at every replan."""
 
     ok: bool
     reason: str
     record: ReplanRecord
     domain_pddl: str
-    problem_pddl: str
-    plan: list[str]
+    export: Callable[[], str] = field(repr=False, compare=False)  # writes the problem's text
+    plan: list[str] = field(default_factory=list)
+
+    @cached_property
+    def problem_pddl(self) -> str:
+        """The PDDL problem this plan solves (written on the first read, then kept)."""
+        return self.export()
 
 
 class PlanningStrategy(Protocol):

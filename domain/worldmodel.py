@@ -34,11 +34,12 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from domain import occupancy_kernel
-from domain.clearance import DistanceMap, Window, clearance_map
-from domain.grid import Flat
+from domain.clearance import DistanceMap
+from domain.grid import unique_cells
+from domain.inflated import InflatedGrids
 from domain.interpolate import bilinear
 from domain.known import axis_samples, distance_block, known_capsules_clear
+from domain.marked import MarkedCells
 from domain.occupancy import (
     Grid,
     RangeObservation,
@@ -51,8 +52,6 @@ from sim.robot import Array
 from sim.world import Bounds
 
 __all__ = ["RangeObservation", "WorldModel", "WorldModelSettings", "range_observations"]
-
-MAX_STALE_WINDOWS = 64  # windows an inflated grid is brought up to date by, before a rebuild
 
 
 class WorldModel:
@@ -72,12 +71,8 @@ class WorldModel:
         self._reset_static()
         self._sensed = SensedLayer(self.grid, settings)
         self._contact = np.zeros(self.grid.shape, dtype=bool)
-        # Where a touched surface probably goes on (a bumper feels a short piece of a wall);
-        # avoided while a way round exists, cleared by beams that see the cells free.
-        self._suspected = np.zeros(self.grid.shape, dtype=bool)
-        self._suspected_count = 0  # suspected cells (none: no scan, no suspect tier)
-        # cells suspected since the last reading: they may have been seen free before
-        self._newly_suspected: list[Flat] = []
+        self._contact_count = 0
+        self._sensed_count = 0  # sensed cells over the threshold
         # Clearance to each dynamic layer, kept current as cells come and go
         # (``domain.clearance``).
         cap = settings.max_clearance
@@ -86,18 +81,17 @@ class WorldModel:
         self._cache: dict[Any, Any] = {}
         self._cache_version = -1
         # The inflated clearance grids (private: never handed out), kept current window by
-        # window: each with the windows changed since it was last brought up to date.
-        self._inflated: dict[tuple[float, float], Array] = {}
-        self._stale: dict[tuple[float, float], list[Window]] = {}
+        # window (``domain.inflated``), and the cells their suspected tier keeps clear of:
+        # contacts, suspected surfaces, the continuation (``domain.marked``), marked afresh
+        # once per version where they changed.
+        self._grids = InflatedGrids(self.grid)
+        self._marked = MarkedCells(self.grid, settings.sensed_continuation, cap)
+        self._marked_version = -1
         for obstacle in known:
             self.add_known(obstacle)
         self.version = 0  # counts changes after construction
 
     # --- layers -------------------------------------------------------------------------------
-
-    @property
-    def _suspected_any(self) -> bool:
-        return self._suspected_count > 0
 
     def integrate(self, observations: Iterable[RangeObservation]) -> list[tuple[float, float]]:
         """Update the sensed layer with range readings; return the world centres of the cells
@@ -106,23 +100,16 @@ class WorldModel:
         became, ceased = sensed.integrate(observations, self._static)
         # cells that ceased first (their window transformed afresh, the new cells included),
         # then the new cells' own window
-        self._changed(self._sensed_map.remove((sensed.occupied,), ceased))
-        self._changed(self._sensed_map.add(sensed.occupied, became))
+        self._grids.changed(self._sensed_map.remove((sensed.occupied,), ceased))
+        self._grids.changed(self._sensed_map.add(sensed.occupied, became))
+        self._sensed_count += int(became.size) - int(ceased.size)
+        marked = self._marked
+        marked.touched(sensed.touched)
         changed = bool(became.size or ceased.size)
-        if self._suspected_count:
-            # A suspected cell is seen free once its log-odds fall to the threshold: only
-            # cells this reading lowered, or suspected since the last one, can have got there.
-            cells = np.concatenate([sensed.lowered, *self._newly_suspected])
-            flat = self._suspected.reshape(-1)
-            cells = cells[flat[cells]]
-            seen_free = np.unique(
-                cells[sensed.log_odds.reshape(-1)[cells] <= self.settings.suspect_cleared]
-            )
-            if seen_free.size:
-                flat[seen_free] = False
-                self._suspected_count -= int(seen_free.size)
-                changed = True
-        self._newly_suspected = []
+        if changed:
+            marked.sensed_changed([became, ceased])
+        if marked.seen_free(sensed.lowered, sensed.log_odds, self.settings.suspect_cleared):
+            changed = True
         if changed:
             self.version += 1
         if not became.size:
@@ -149,7 +136,9 @@ class WorldModel:
             window |= disc
             ii, jj = np.nonzero(new)
             cells = (ii + i0) * grid.ny + (jj + j0)
-            self._changed(self._contact_map.add(self._contact, cells))
+            self._contact_count += int(cells.size)
+            self._grids.changed(self._contact_map.add(self._contact, cells))
+            self._marked.flagged(cells)
             self.version += 1
 
     def add_suspected(self, points: Iterable[tuple[float, float]]) -> None:
@@ -159,28 +148,23 @@ class WorldModel:
         if pts.size == 0:
             return
         flat, inside = self.grid.locate(pts.reshape(-1, 2))
-        cells = np.unique(flat[inside])
-        cells = cells[~self._contact.reshape(-1)[cells] & ~self._suspected.reshape(-1)[cells]]
-        if cells.size:
-            self._suspected.reshape(-1)[cells] = True
-            self._suspected_count += int(cells.size)
-            self._newly_suspected.append(cells)
+        if self._marked.suspect(unique_cells(flat[inside]), self._contact):
             self.version += 1
 
     def suspected(self) -> NDArray[np.bool_]:
         """Suspected surfaces: where a touched one probably goes on, and never-observed cells
         near what the range sensors found (a new array)."""
-        out: NDArray[np.bool_] = self._suspected | self._continuation()
+        # the marked cells but contacts are the suspected ones and the continuation
+        marked = self._sync_marked().marked
+        out: NDArray[np.bool_] = self._marked.suspected | (marked & ~self._contact)
         return out
 
     def any_suspected(self) -> bool:
         """Whether any cell is suspected (without building the layer)."""
-        if self._suspected_any:
+        if self._marked.suspected_count:
             return True
-        key = "continuation-any"  # a plain bool: cached beside the arrays, not through _store
-        if self._cached(key) is None:
-            self._cache[key] = bool(np.any(self._continuation()))
-        return bool(self._cache[key])
+        # marked cells hold every contact cell: any more are suspected (the continuation)
+        return self._sync_marked().count > self._contact_count
 
     def add_known(self, obstacle: Obstacle) -> None:
         """Add a known obstacle to the static layer (exact distances within ``max_clearance``)."""
@@ -193,7 +177,7 @@ class WorldModel:
         if np.any(dist < window):
             np.minimum(window, dist, out=window)
             np.minimum(self._static[i0:i1, j0:j1], dist, out=self._static[i0:i1, j0:j1])
-            self._changed((i0, i1, j0, j1))
+            self._grids.changed((i0, i1, j0, j1))
             self.version += 1
 
     def remove_known(self, obstacle: Obstacle) -> bool:
@@ -204,8 +188,7 @@ class WorldModel:
         remaining, version = [o for o in self._known if o != obstacle], self.version
         self._known = []
         self._reset_static()
-        self._inflated.clear()  # the static layer changed everywhere: rebuilt when next read
-        self._stale.clear()
+        self._grids.reset()  # the static layer changed everywhere: rebuilt when next read
         for other in remaining:
             self.add_known(other)
         self.version = version + 1  # one change, however many obstacles were re-added
@@ -260,70 +243,30 @@ class WorldModel:
         ``contact_inflation`` (default: the same); known obstacles and walls exact. The head
         sees only part of a hidden obstacle, and a bumper only the point it pressed: the rest
         lies beyond. With ``suspected``, suspected-surface cells count as contact cells.
-        One grid per inflation, brought up to date only where the layers changed since (with
-        suspected cells, built afresh for each version of the model)."""
+        One grid per inflation and tier, brought up to date only where the layers (with
+        ``suspected``, the marked cells: ``domain.marked``) changed since it was last read."""
         grow_contact = inflation if contact_inflation is None else contact_inflation
-        suspect = suspected and self.any_suspected()
-        if suspect:
-            # Suspected cells, and never-observed ones next to sensed cells, come and go with
-            # the readings: this grid is built afresh for each version of the model.
-            key = ("inflated", inflation, grow_contact)
-            grid = self._cached(key)
-            if grid is None:
-                marked = self._contact | self._suspected | self._continuation()
-                near = clearance_map(marked, self.grid.resolution, self.settings.max_clearance)
-                grid = np.empty(self.grid.shape)
-                self._inflate(
-                    near, inflation, grow_contact, (0, self.grid.nx, 0, self.grid.ny), grid
-                )
-                grid = self._store(key, grid)
+        if suspected and self.any_suspected():
+            near = self._sync_marked().clearance()
         else:
-            grid = self._inflated.get((inflation, grow_contact))
-            near = self._contact_map.get(self._contact)
-            if grid is None:
-                grid = self._inflated[(inflation, grow_contact)] = np.empty(self.grid.shape)
-                self._inflate(
-                    near, inflation, grow_contact, (0, self.grid.nx, 0, self.grid.ny), grid
-                )
-            else:
-                for window in self._stale[(inflation, grow_contact)]:  # where the layers changed
-                    self._inflate(near, inflation, grow_contact, window, grid)
-            self._stale[(inflation, grow_contact)] = []
+            suspected, near = False, self._contact_map.get(self._contact)
+        sensed = self._sensed_map.get(self._sensed.occupied)
+        key = (inflation, grow_contact, suspected)
+        grid = self._grids.get(key, self._static, sensed, near)
         return bilinear(grid, self.grid, np.asarray(points, dtype=float), self.bounds)
 
-    def _inflate(
-        self, near: Array, inflation: float, grow_contact: float, window: Window, out: Array
-    ) -> None:
-        """``inflated_clearance_at``'s grid over ``window`` of ``out``: sensed cells' clearance
-        less ``inflation``, ``near`` (the contacts' clearance, with suspected cells if they
-        count) less ``grow_contact``, at least 0, at most the static layer's. Element by
-        element, so a window of it equals the same window of the whole; the smaller of two
-        clearances less one inflation is the smaller clearance less it, so one formula serves
-        equal inflations too."""
-        sensed = self._sensed_map.get(self._sensed.occupied)
-        if occupancy_kernel.AVAILABLE:
-            _inflate_window(self._static, sensed, near, inflation, grow_contact, window, out)
-            return
-        i0, i1, j0, j1 = window
-        grown = np.minimum(
-            np.maximum(sensed[i0:i1, j0:j1] - inflation, 0.0),
-            np.maximum(near[i0:i1, j0:j1] - grow_contact, 0.0),
-        )
-        out[i0:i1, j0:j1] = np.minimum(self._static[i0:i1, j0:j1], grown)
-
-    def _changed(self, window: Window | None) -> None:
-        """The layers changed within ``window`` (``None``: nowhere): the inflated grids are
-        brought up to date there when next read (rebuilt when too much has changed)."""
-        if window is None:
-            return
-        for key in list(self._inflated):
-            stale = self._stale[key]
-            if len(stale) >= MAX_STALE_WINDOWS:
-                del self._inflated[key], self._stale[key]
-            elif stale and _overlap(stale[-1], window):
-                stale[-1] = _union(stale[-1], window)  # one update of both (nearby changes)
-            else:
-                stale.append(window)
+    def _sync_marked(self) -> MarkedCells:
+        """The suspected tier's marked cells, marked afresh once per version of the model
+        where they may have changed (the inflated grids of the tier told where their
+        clearance did)."""
+        marked = self._marked
+        if self._marked_version != self.version:
+            self._marked_version = self.version
+            sensed = self._sensed_map.get(self._sensed.occupied)
+            args = (self._contact, sensed, self._sensed.log_odds, self._sensed_count > 0)
+            for window in marked.sync(*args):
+                self._grids.changed(window, suspected_only=True)
+        return marked
 
     def clearance_at(self, points: Array) -> Array:
         """Clearance at world points ``[..., 2]``: bilinear between cell centres, exact to the
@@ -440,21 +383,6 @@ class WorldModel:
         out: Array = cached
         return out
 
-    def _continuation(self) -> NDArray[np.bool_]:
-        """Never-observed cells within ``sensed_continuation`` of a sensed cell (cached until
-        ``version`` changes)."""
-        cached = self._cached("continuation")
-        if cached is None:
-            reach = self.settings.sensed_continuation
-            if reach <= 0 or not np.any(self._sensed.occupied):
-                cached = np.zeros(self.grid.shape, dtype=bool)
-            else:
-                near = self._sensed_map.get(self._sensed.occupied) <= reach
-                cached = near & (self._sensed.log_odds == 0.0) & ~self._contact
-            cached = self._store("continuation", cached)
-        out: NDArray[np.bool_] = cached
-        return out
-
     def _interpolate(self, grid: Array, pts: Array) -> Array:
         """Bilinear between cell centres (nearest beyond the outer centres)."""
         return bilinear(grid, self.grid, pts)
@@ -469,31 +397,3 @@ class WorldModel:
         value.flags.writeable = False  # shared with callers until the next change
         self._cache[key] = value
         return value
-
-
-def _overlap(a: Window, b: Window) -> bool:
-    """Whether two windows share cells."""
-    return a[0] < b[1] and b[0] < a[1] and a[2] < b[3] and b[2] < a[3]
-
-
-def _union(a: Window, b: Window) -> Window:
-    """The smallest window holding both."""
-    return min(a[0], b[0]), max(a[1], b[1]), min(a[2], b[2]), max(a[3], b[3])
-
-
-@occupancy_kernel._jit
-def _inflate_window(  # pragma: no cover - compiled
-    static: Array,
-    sensed: Array,
-    near: Array,
-    inflation: float,
-    grow: float,
-    window: Window,
-    out: Array,
-) -> None:
-    """``WorldModel._inflate``'s numpy formula, cell by cell over ``window`` of ``out``."""
-    for i in range(window[0], window[1]):
-        for j in range(window[2], window[3]):
-            a = max(sensed[i, j] - inflation, 0.0)
-            b = max(near[i, j] - grow, 0.0)
-            out[i, j] = min(static[i, j], min(a, b))

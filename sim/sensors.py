@@ -145,11 +145,14 @@ class SensorSuite:
             tip = (float(pose[0]) + hl * float(cos[-1]), float(pose[1]) + hl * float(sin[-1]))
             nearest, seen = world.sensor_cast(tip, cos[:-1], sin[:-1], reach, first, caps)
             values, whats = nearest.tolist(), seen.tolist()
+            # The noise of every echo in one draw: ``normal(0, σ)`` is ``0 + σ * z`` of the
+            # next standard normal, drawn in the same order one by one or all at once.
+            noisy = [k for k, s in enumerate(sensors) if s[1] > 0 and whats[k] != NOTHING]
+            z = iter(self.rng.standard_normal(len(noisy)).tolist() if noisy else ())
             for k, (name, noise_std, cap) in enumerate(sensors):
                 v, what = values[k], whats[k]
                 if noise_std > 0 and what != NOTHING:  # as below
-                    noisy = v + self.rng.normal(0, noise_std)
-                    v = min(max(noisy, 0.0), math.nextafter(cap, 0.0))  # np.clip's order
+                    v = min(max(v + (0.0 + noise_std * next(z)), 0.0), math.nextafter(cap, 0.0))
                 ranges[name] = math.nan if name in dropped else v
                 hits[name] = what
             return self._finish(ranges, hits, joints, pose, dropped, tip)

@@ -18,6 +18,7 @@ from py_trees.common import Access, Status
 
 from app.executor.context import MissionContext
 from app.executor.light import LightBehaviour
+from app.executor.plan_versions import PlanVersion, settle
 from app.executor.robot import ContactReading
 from app.missions.spec import ARRIVE_FRACTION
 from domain.strategy import Command
@@ -284,14 +285,8 @@ class Replan(MissionBehaviour):
         out = ctx.strategy.replan(ctx.situation(), trigger, ctx.cancel)
         ctx.replans.append(out.record)
         ctx.plan_version += 1
-        ctx.pddl.append(
-            {
-                "version": ctx.plan_version,
-                "domain": out.domain_pddl,
-                "problem": out.problem_pddl,
-                "plan": out.plan,
-            }
-        )
+        ctx.pddl.append(PlanVersion(ctx.plan_version, out))
+        settle(ctx.pddl, ctx.unwritten_kept)
         ctx.trigger = None
         if out.record.trigger != "initial":
             # The log keeps the record without its plans (those are the plan versions); the

@@ -11,6 +11,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
+from app.executor.plan_versions import UNWRITTEN_KEPT, PlanVersion
 from app.executor.robot import Observation, Robot
 from app.missions.spec import MissionSpec
 from domain.goal_order import LegGoal
@@ -70,7 +71,8 @@ class MissionContext:
     grounding: dict[str, Any] = field(default_factory=dict)
     failure: str | None = None
     events: list[dict[str, Any]] = field(default_factory=list)
-    pddl: list[dict[str, Any]] = field(default_factory=list)
+    pddl: list[PlanVersion] = field(default_factory=list)
+    unwritten_kept: int = UNWRITTEN_KEPT  # plan versions whose PDDL problem may stay unwritten
     contacts: int = 0
     interval: float = 0.25  # model seconds per control tick
     chain_started: float = 0.0
@@ -192,7 +194,7 @@ class MissionResult:
     wall_time: float
     trajectory: list[list[float]]
     events: list[dict[str, Any]]
-    pddl: list[dict[str, Any]]
+    pddl: list[PlanVersion]  # every plan version (its problem written when read)
     executed: list[dict[str, Any]] = field(default_factory=list)
 
     def chain(self) -> list[str]:

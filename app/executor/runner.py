@@ -19,6 +19,7 @@ import py_trees
 from py_trees.common import Access, Status
 
 from app.executor.context import GoalState, MissionContext, MissionResult
+from app.executor.plan_versions import UNWRITTEN_KEPT
 from app.executor.robot import Robot, sim_robot
 from app.executor.tree import build_tree, snapshot
 from app.missions.spec import MissionSpec
@@ -87,7 +88,10 @@ class MissionRunner:
         on_tick: TickHook | None = None,
         cancel: CancelFlag | None = None,
         robot: Robot | None = None,
+        unwritten_kept: int = UNWRITTEN_KEPT,
     ) -> None:
+        if unwritten_kept < 0:
+            raise ValueError(f"unwritten_kept: at least 0 plan versions, got {unwritten_kept}")
         self.spec = spec
         self.on_tick = on_tick
         self.cancel = cancel or threading.Event()
@@ -107,6 +111,7 @@ class MissionRunner:
             raise MissionError(str(exc)) from exc
         self.ctx = self._context(spec, library, self.robot)
         self.ctx.cancel = self.cancel  # the planner stops its search when it is set
+        self.ctx.unwritten_kept = unwritten_kept  # plan versions whose problem waits for a read
         self._writer = py_trees.blackboard.Client(name="runner", namespace=self.namespace)
         self._writer.register_key("context", access=Access.WRITE)
         self._writer.context = self.ctx

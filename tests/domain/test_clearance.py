@@ -99,6 +99,33 @@ def test_windowed_removals_equal_the_full_transform(seed: int) -> None:
         np.testing.assert_array_equal(live.get(), clearance_map(occupied | other, 0.05, cap))
 
 
+@pytest.mark.parametrize("seed", range(12))
+def test_windowed_removals_from_walls_equal_the_full_transform(seed: int) -> None:
+    """Cells taken off the ends of thick walls, a few or a dozen at a time: many cells lose
+    their nearest one (measured again by the transform over their window), or few do (one by
+    one); either way the map is the full transform's."""
+    rng, grid, cap, occupied = random_layer(seed, 20)
+    cap = 2.0  # far reach: the cells beyond a wall's end all lose their nearest cell
+    walls = []
+    for _ in range(6):
+        i, j = int(rng.integers(10, grid.nx - 40)), int(rng.integers(10, grid.ny - 40))
+        length, across = int(rng.integers(10, 30)), bool(rng.random() < 0.5)
+        cells = [
+            (i + k, j + t) if across else (i + t, j + k) for k in range(length) for t in range(3)
+        ]
+        walls.append([a * grid.ny + b for a, b in cells])
+        occupied.flat[walls[-1]] = True
+    live = DistanceMap(grid, cap)
+    live.get(occupied)
+    for _ in range(25):
+        wall = walls[int(rng.integers(len(walls)))]
+        gone = [c for c in wall[: int(rng.integers(1, 13))] if occupied.flat[c]]
+        del wall[: len(gone)]
+        occupied.flat[gone] = False
+        live.remove((occupied,), np.unique(np.asarray(gone, dtype=np.intp)))
+        np.testing.assert_array_equal(live.get(), clearance_map(occupied, 0.05, cap))
+
+
 def reference_inflated(model: WorldModel, inflation: float, grow: float, suspect: bool):
     """The inflated clearance grid from full transforms of the layers as they are now."""
     cap, res = model.settings.max_clearance, model.grid.resolution

@@ -1,0 +1,63 @@
+"""The compiled flood fill answers "can the body get there at all?" as the labelling does."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from domain import reach_kernel
+from domain.lattice import LatticeGrid, LatticeSettings, motion_table
+from domain.lattice_reach import Reachability
+from primitives.library import load_bundled
+from sim.world import Bounds
+
+pytestmark = pytest.mark.skipif(not reach_kernel.AVAILABLE, reason="numba kernels are off")
+
+SETTINGS = LatticeSettings()
+TABLE = motion_table(load_bundled(), "straight", (0.0, 0.0, 0.0), SETTINGS)
+
+
+def clearance(grid: LatticeGrid, discs: list[tuple[float, float, float]]) -> np.ndarray:
+    """Metres from each cell centre to the nearest disc or wall."""
+    c = grid.centres
+    b = grid.bounds
+    out = np.minimum.reduce(
+        [c[:, 0] - b.xmin, b.xmax - c[:, 0], c[:, 1] - b.ymin, b.ymax - c[:, 1]]
+    )
+    for x, y, r in discs:
+        out = np.minimum(out, np.hypot(c[:, 0] - x, c[:, 1] - y) - r)
+    return out
+
+
+def ring(x: float, y: float, radius: float, n: int = 40) -> list[tuple[float, float, float]]:
+    """Small discs on a circle: a closed pen round (x, y)."""
+    a = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    return [(x + radius * np.cos(t), y + radius * np.sin(t), 0.06) for t in a]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_the_flood_fill_answers_as_the_labelling(seed: int) -> None:
+    assert TABLE is not None
+    rng = np.random.default_rng(seed)
+    grid = LatticeGrid(Bounds(-1.5, 1.5, -1.5, 1.5), SETTINGS)
+    discs = [(*rng.uniform(-1.4, 1.4, 2), rng.uniform(0.05, 0.3)) for _ in range(4 + seed)]
+    discs += ring(0.9, 0.9, 0.45)  # a pen: goals inside it cannot be reached from outside
+    reach = Reachability(grid, TABLE, clearance(grid, discs), margin=0.03)
+    answers = []
+    for _ in range(12):
+        start = (int(rng.integers(grid.nx)), int(rng.integers(grid.ny)), int(rng.integers(64)))
+        for goal in [(0.9, 0.9), tuple(rng.uniform(-1.4, 1.4, 2)), (-1.2, -1.2)]:
+            flood = reach.reaches(start, goal, 0.08, compiled=True)
+            labels = reach.reaches(start, goal, 0.08, compiled=False)
+            assert flood == labels, (seed, start, goal)
+            answers.append(flood)
+    assert True in answers and False in answers  # both answers were put to the test
+
+
+def test_a_start_that_touches_everything_may_reach() -> None:
+    assert TABLE is not None
+    grid = LatticeGrid(Bounds(-1.0, 1.0, -1.0, 1.0), SETTINGS)
+    blocked = np.full(grid.nx * grid.ny, -1.0)  # nowhere may the body lie
+    reach = Reachability(grid, TABLE, blocked, margin=0.03)
+    assert reach.reaches((20, 20, 0), (0.5, 0.5), 0.08, compiled=True)
+    assert reach.reaches((20, 20, 0), (0.5, 0.5), 0.08, compiled=False)
