@@ -84,13 +84,12 @@ def tier_clearance(
 
 def inflated_grid(world: Any, inflation: float, contact_inflation: float, suspected: bool) -> Array:
     """The grid ``world.inflated_clearance_at`` reads for these arguments, brought up to date
-    (by asking it for no points). The world model keeps these grids private; this reads the
-    one it would interpolate (the same object, so the same values)."""
+    (by asking it for no points). The world model keeps its inflated grids private
+    (domain/inflated.py); this reads the one it would interpolate (the same array, so the same
+    values)."""
     world.inflated_clearance_at(_NO_POINTS, inflation, contact_inflation, suspected=suspected)
-    if suspected and world.any_suspected():
-        values: Array = world._cached(("inflated", inflation, contact_inflation))
-    else:
-        values = world._inflated[(inflation, contact_inflation)]
+    key = (inflation, contact_inflation, suspected and world.any_suspected())
+    values: Array = world._grids._grids[key].values
     return values
 
 
@@ -100,4 +99,5 @@ _NO_POINTS = np.zeros((0, 2))
 def _readable(world: Any) -> bool:
     """Whether the world model's inflated grids can be read (a ``WorldModel`` as it is laid out
     today; anything else keeps the plain callable and pyperplan's search)."""
-    return all(hasattr(world, a) for a in ("_cached", "_inflated", "grid", "bounds"))
+    grids = getattr(world, "_grids", None)
+    return isinstance(getattr(grids, "_grids", None), dict) and hasattr(world, "grid")
