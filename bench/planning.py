@@ -32,9 +32,11 @@ import numpy as np
 
 from bench.fast_downward import FdRun, run_driver, run_unified_planning
 from domain.goal_order import LegGoal
+from domain.grid_clearance import world_clearance
 from domain.lattice import LatticeSettings, motion_table
 from domain.lattice_pddl import lattice_domain, lattice_problem
 from domain.lattice_planner import LatticePlanner
+from domain.lattice_task import Clearance
 from domain.occupancy import WorldModelSettings
 from domain.worldmodel import WorldModel
 from primitives.library import Library, load_bundled
@@ -59,7 +61,13 @@ def clutter(side: float, rng: np.random.Generator) -> list[Circle]:
     return out
 
 
-def run(side: float, library: object, seed: int = 0) -> dict[str, Any]:
+def clearance_of(world: WorldModel, compiled: bool) -> Clearance:
+    """The world's clearance as planners take it: with its compiled form (the compiled lattice
+    search runs) or the plain callable (pyperplan's search runs)."""
+    return world_clearance(world) if compiled else world.clearance_at
+
+
+def run(side: float, library: object, seed: int = 0, compiled: bool = True) -> dict[str, Any]:
     rng = np.random.default_rng(seed)
     bounds = Bounds(-side / 2, side / 2, -side / 2, side / 2)
     world = WorldModel(bounds, clutter(side, rng))
@@ -70,7 +78,8 @@ def run(side: float, library: object, seed: int = 0) -> dict[str, Any]:
     pose = (-side / 2 + 1.3, -side / 2 + 0.4, np.pi)  # tail towards -x, head first to +x
     goal = [LegGoal(0, side / 2 - 0.6, side / 2 - 0.6, 0.1)]
     t0 = time.perf_counter()
-    plan = planner.plan(table, world.clearance_at, world.version, pose, goal, True)
+    clearance = clearance_of(world, compiled)
+    plan = planner.plan(table, clearance, world.version, pose, goal, True)
     first = (time.perf_counter() - t0) * 1e3
     problem = lattice_problem(plan.legs, "straight") if plan.legs else None
     export = {
@@ -91,9 +100,7 @@ def run(side: float, library: object, seed: int = 0) -> dict[str, Any]:
         world.add_contact((ahead[0], ahead[1]))
         remaining = plan.actions[plan.actions.index(moves[2]) + 1 :]
         t0 = time.perf_counter()
-        plan = planner.plan(
-            table, world.clearance_at, world.version, pose, goal, True, previous=remaining
-        )
+        plan = planner.plan(table, clearance, world.version, pose, goal, True, previous=remaining)
         replans.append((time.perf_counter() - t0) * 1e3)
         repaired += plan.repaired
     return {
@@ -106,7 +113,9 @@ def run(side: float, library: object, seed: int = 0) -> dict[str, Any]:
     }
 
 
-def scaling(side: float, library: object, seed: int = 0, trials: int = 5) -> dict[str, Any]:
+def scaling(
+    side: float, library: object, seed: int = 0, trials: int = 5, compiled: bool = True
+) -> dict[str, Any]:
     """Replan time after one cell is blocked on the path 1 m ahead of the robot: the repair
     (what a mission does) and a full plan from scratch, medians over ``trials`` positions."""
     rng = np.random.default_rng(seed)
@@ -118,7 +127,8 @@ def scaling(side: float, library: object, seed: int = 0, trials: int = 5) -> dic
     planner = LatticePlanner(bounds, settings, time_limit=60.0)
     pose = (-side / 2 + 1.3, -side / 2 + 0.4, np.pi)
     goal = [LegGoal(0, side / 2 - 0.6, side / 2 - 0.6, 0.1)]
-    plan = planner.plan(table, world.clearance_at, world.version, pose, goal, True)
+    clearance = clearance_of(world, compiled)
+    plan = planner.plan(table, clearance, world.version, pose, goal, True)
     repair, full, repaired = [], [], 0
     for trial in range(trials):
         moves = [a for a in plan.actions if a.name == "move"]
@@ -136,14 +146,12 @@ def scaling(side: float, library: object, seed: int = 0, trials: int = 5) -> dic
         world.add_contact((ahead[0], ahead[1]))  # a contact radius of 0: one cell
         remaining = plan.actions[plan.actions.index(moves[2 + 2 * trial]) + 1 :]
         t0 = time.perf_counter()
-        fixed = planner.plan(
-            table, world.clearance_at, world.version, here, goal, True, previous=remaining
-        )
+        fixed = planner.plan(table, clearance, world.version, here, goal, True, previous=remaining)
         repair.append((time.perf_counter() - t0) * 1e3)
         repaired += fixed.repaired
         fresh = LatticePlanner(bounds, settings, time_limit=60.0)  # nothing kept: a first plan
         t0 = time.perf_counter()
-        fresh.plan(table, world.clearance_at, world.version, here, goal, True)
+        fresh.plan(table, clearance, world.version, here, goal, True)
         full.append((time.perf_counter() - t0) * 1e3)
     return {
         "states": planner.grid.size,
@@ -168,7 +176,7 @@ def scaling_table(args: argparse.Namespace) -> None:
     print(f"{'arena':>7}{'states':>12}{'repair':>9}{'repaired':>10}{'scratch':>9}")
     rows = []
     for side in args.scaling:
-        r = scaling(side, library, args.seed)
+        r = scaling(side, library, args.seed, compiled=args.search == "compiled")
         rows.append(r)
         print(
             f"{side:>5g} m{r['states']:>12,}{r['repair']:>9.1f}{r['repaired']:>6}/{r['n']:<3}"
@@ -212,6 +220,13 @@ def main(argv: list[str] | None = None) -> None:
     )
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument(
+        "--search",
+        choices=("compiled", "pyperplan"),
+        default="compiled",
+        help="the compiled lattice search (domain/lattice_search.py; needs SCREWSNAKE_KERNELS "
+        "on) or pyperplan's gbf (the same plans)",
+    )
+    parser.add_argument(
         "--scaling",
         type=float,
         nargs="*",
@@ -244,7 +259,12 @@ def warm_up(library: Library) -> tuple[float, float]:
     world = WorldModel(bounds, [Circle(0.0, 0.0, 0.2)])
     t0 = time.perf_counter()
     LatticePlanner(bounds).plan(
-        table, world.clearance_at, world.version, (-0.5, -1.0, np.pi), [LegGoal(0, 1, 1, 0.1)], True
+        table,
+        world_clearance(world),
+        world.version,
+        (-0.5, -1.0, np.pi),
+        [LegGoal(0, 1, 1, 0.1)],
+        True,
     )
     return built, (time.perf_counter() - t0) * 1e3
 
@@ -257,8 +277,8 @@ def table(args: argparse.Namespace) -> None:
         f"plan loading the compiled kernels {loaded:.0f} ms"
     )
     print(
-        "lattice: 0.05 m cells, 64 orientations, 22 learned primitives per shape (gbf, lattice h)"
-        + ("; the other core loaded" if args.load else "")
+        "lattice: 0.05 m cells, 64 orientations, 22 learned primitives per shape (gbf, lattice h, "
+        f"{args.search} search)" + ("; the other core loaded" if args.load else "")
     )
     print(
         "FD: Fast Downward lama-first on the first plan's exported PDDL; driver = whole process "
@@ -272,7 +292,7 @@ def table(args: argparse.Namespace) -> None:
     )
     notes, partial = [], False
     for side in args.sizes:
-        r = run(side, library, args.seed)
+        r = run(side, library, args.seed, compiled=args.search == "compiled")
         e = r["export"]
         domain = lattice_domain().text()
         fd = run_driver(domain, e["problem"], args.fd_limit) if e["problem"] else FdRun("no export")

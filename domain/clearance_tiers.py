@@ -11,6 +11,7 @@ from typing import Any, Literal
 
 import numpy as np
 
+from domain.grid_clearance import ClearanceGrids, GridClearance
 from sim.robot import Array
 
 SENSED_INFLATION = 0.05  # metres plans keep beyond what the head saw of a hidden obstacle
@@ -44,7 +45,8 @@ def tiers(any_suspected: bool) -> list[Tier]:
 def tier_clearance(
     world: Any, tier: Tier, goals: Sequence[tuple[float, float]] = ()
 ) -> Callable[[Array], Array]:
-    """The clearance (m) at world points ``[..., 2]`` that plans of this tier keep."""
+    """The clearance (m) at world points ``[..., 2]`` that plans of this tier keep (with its
+    compiled form, ``GridClearance.grids``, where the world model's grids can be read)."""
     if tier.suspected != "off-goals" or not goals:
         avoid = tier.suspected != "none"
 
@@ -52,7 +54,11 @@ def tier_clearance(
             out: Array = world.inflated_clearance_at(pts, tier.sensed, tier.grow, suspected=avoid)
             return out
 
-        return clearance
+        def grids() -> ClearanceGrids:
+            values = inflated_grid(world, tier.sensed, tier.grow, avoid)
+            return ClearanceGrids.of(values, world.grid, world.bounds)
+
+        return GridClearance(clearance, grids) if _readable(world) else clearance
     centres = np.asarray(goals, dtype=float)
 
     def off_goals(pts: Array) -> Array:
@@ -68,4 +74,30 @@ def tier_clearance(
             )
         return out
 
-    return off_goals
+    def off_goals_grids() -> ClearanceGrids:
+        values = inflated_grid(world, tier.sensed, tier.grow, True)
+        near = inflated_grid(world, tier.sensed, CONTACT_BARE, True)
+        return ClearanceGrids.of(values, world.grid, world.bounds, near, centres, GOAL_UNSUSPECTED)
+
+    return GridClearance(off_goals, off_goals_grids) if _readable(world) else off_goals
+
+
+def inflated_grid(world: Any, inflation: float, contact_inflation: float, suspected: bool) -> Array:
+    """The grid ``world.inflated_clearance_at`` reads for these arguments, brought up to date
+    (by asking it for no points). The world model keeps its inflated grids private
+    (domain/inflated.py); this reads the one it would interpolate (the same array, so the same
+    values)."""
+    world.inflated_clearance_at(_NO_POINTS, inflation, contact_inflation, suspected=suspected)
+    key = (inflation, contact_inflation, suspected and world.any_suspected())
+    values: Array = world._grids._grids[key].values
+    return values
+
+
+_NO_POINTS = np.zeros((0, 2))
+
+
+def _readable(world: Any) -> bool:
+    """Whether the world model's inflated grids can be read (a ``WorldModel`` as it is laid out
+    today; anything else keeps the plain callable and pyperplan's search)."""
+    grids = getattr(world, "_grids", None)
+    return isinstance(getattr(grids, "_grids", None), dict) and hasattr(world, "grid")

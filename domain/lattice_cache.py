@@ -19,9 +19,12 @@ from scipy import ndimage
 
 from domain.lattice import LatticeGrid, MotionTable
 from domain.lattice_states import LatticeState, StatePool
+from domain.lattice_store import Store
 from sim.robot import Array
 
 MOVES_LIMIT = 10_000  # states whose successors are kept (~5-10 KB each); then the older half goes
+COMPILED_LIMIT = 1_000_000  # states whose free motions the compiled store keeps (~32-64 B each);
+# then it starts afresh (what it forgets is checked again when met: no plan changes)
 Moves = tuple[list[tuple[Operator, LatticeState]], list[tuple[int, str]]]  # successors, edges
 
 
@@ -35,13 +38,20 @@ class MotionCache:
         margin: float,
         states: StatePool | None = None,
         moves_limit: int = MOVES_LIMIT,
+        compiled_limit: int = COMPILED_LIMIT,
     ) -> None:
         if moves_limit < 1:
             raise ValueError("moves_limit: at least 1 state")
+        if compiled_limit < 1:
+            raise ValueError("compiled_limit: at least 1 state")
+        self.compiled_limit = compiled_limit
         self.grid, self.table, self.margin = grid, table, margin
         self.free: dict[int, NDArray[np.bool_]] = {}
         # Successors of the states in ``free`` (from the same verdicts), built on demand.
         self.moves: dict[int, Moves] = {}
+        # The same verdicts for the compiled search (domain/lattice_search.py): state number ->
+        # free motions as a bitmask, in a numba typed dict (made on first use).
+        self._compiled: Store | None = None
         self.moves_limit = moves_limit
         self.states = states if states is not None else StatePool()
         # Clearance above this decides nothing: every motion needs less at every point.
@@ -59,9 +69,10 @@ class MotionCache:
         self.version = version
         capped = np.minimum(at_centres.reshape(self.grid.nx, self.grid.ny), self.cap)
         old, self._capped = self._capped, capped
-        if old is None or not self.free:
+        if old is None or not (self.free or self._compiled is not None):
             self.free.clear()
             self.moves.clear()
+            self._compiled = None
             return
         changed = np.abs(capped - old) > 1e-9
         if np.any(changed):
@@ -85,7 +96,7 @@ class MotionCache:
     def _forget(self, changed: NDArray[np.bool_], origin: tuple[int, int]) -> None:
         """Drop the states within a motion's reach of a changed cell (``changed``: a window of
         cells whose first cell is ``origin``)."""
-        if not self.free:
+        if not (self.free or self._compiled is not None):
             return
         # Only the changed cells' bounding box matters (the distances below reach past it).
         rows, cols = np.flatnonzero(changed.any(axis=1)), np.flatnonzero(changed.any(axis=0))
@@ -98,16 +109,28 @@ class MotionCache:
         pad = math.ceil(limit / r)
         grown = np.pad(changed, pad)  # states just outside the window may reach into it
         near = ndimage.distance_transform_edt(~grown) * r <= limit
-        numbers = np.fromiter(self.free, dtype=np.int64, count=len(self.free))
-        i, j = np.divmod(numbers % (self.grid.nx * self.grid.ny), self.grid.ny)
-        li, lj = i - origin[0] + pad, j - origin[1] + pad
-        inside = (li >= 0) & (li < near.shape[0]) & (lj >= 0) & (lj < near.shape[1])
-        hit = np.zeros(numbers.size, dtype=bool)
-        hit[inside] = near[li[inside], lj[inside]]
-        moves = self.moves
-        for number in numbers[hit].tolist():
-            del self.free[number]
-            moves.pop(number, None)
+
+        plane, ny = self.grid.nx * self.grid.ny, self.grid.ny
+        if self.free:
+            numbers = np.fromiter(self.free, dtype=np.int64, count=len(self.free))
+            i, j = np.divmod(numbers % plane, ny)
+            li, lj = i - origin[0] + pad, j - origin[1] + pad
+            inside = (li >= 0) & (li < near.shape[0]) & (lj >= 0) & (lj < near.shape[1])
+            hit = np.zeros(numbers.size, dtype=bool)
+            hit[inside] = near[li[inside], lj[inside]]
+            moves = self.moves
+            for number in numbers[hit].tolist():
+                del self.free[number]
+                moves.pop(number, None)
+        if self._compiled is not None:  # the same states, in the compiled store
+            self._compiled.forget_near(near, origin[0] - pad, origin[1] - pad, plane, ny)
+
+    def compiled_free(self) -> Store:
+        """The free motions for the compiled search: state number -> bitmask (bit ``m``:
+        motion ``m``), kept and forgotten as ``free`` is."""
+        if self._compiled is None or len(self._compiled) >= self.compiled_limit:
+            self._compiled = Store()
+        return self._compiled
 
     def keep_moves(self, number: int, moves: Moves) -> None:
         """Keep the successors built for a state whose free motions this cache holds."""

@@ -18,15 +18,17 @@ from typing import Any
 
 import numpy as np
 
+from domain import lattice_search
 from domain.goal_order import LegGoal, order_goals
 from domain.lattice import Key, LatticeGrid, LatticeSettings, MotionTable
 from domain.lattice_cache import MotionCache
 from domain.lattice_distances import centroid_need, distance_map
+from domain.lattice_heuristic import LatticeHeuristic
 from domain.lattice_plan import LatticeAction, LatticePlan
 from domain.lattice_reach import Reachability
 from domain.lattice_repair import PlanRepairer, leg_reach
 from domain.lattice_states import StatePool, no_cycle_collection
-from domain.lattice_task import Clearance, LatticeHeuristic, LatticeTask, primitive_name
+from domain.lattice_task import Clearance, LatticeTask, primitive_name
 from domain.pyperplan_adapter import (
     HEURISTICS,
     SEARCHES,
@@ -286,8 +288,11 @@ class LatticePlanner:
                 task.ground_all()  # pyperplan's own heuristics need every operator
                 h = HEURISTICS[self.heuristic](task)
             search = SEARCHES[self.search]
-            with no_cycle_collection(), task.search_reached(search):
-                plan = search(task, h) if self.search != "bfs" else search(task)
+            if self.search == "gbf" and lattice_search.applies(task, h):
+                plan = lattice_search.search(task, h)  # the same plan, compiled
+            else:
+                with no_cycle_collection(), task.search_reached(search):
+                    plan = search(task, h) if self.search != "bfs" else search(task)
         except SearchStopped as stop:
             ms = (time.monotonic() - t0) * 1e3
             best = lattice_h.best

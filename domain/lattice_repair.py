@@ -22,7 +22,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 from pyperplan.heuristics.heuristic_base import Heuristic
+from pyperplan.search import greedy_best_first_search
 
+from domain import lattice_search
 from domain.goal_order import LegGoal
 from domain.lattice import Key, LatticeGrid, MotionTable
 from domain.lattice_cache import MotionCache, Moves
@@ -111,6 +113,8 @@ def moves_free(
 class RejoinTask(LatticeTask):
     """A detour: from ``start`` to any of the lattice states ``targets`` within a window."""
 
+    window: tuple[slice, slice]
+
     def __init__(
         self,
         grid: LatticeGrid,
@@ -130,6 +134,9 @@ class RejoinTask(LatticeTask):
 
     def is_near(self, key: Key) -> bool:
         return self.grid.encode(key) in self.targets
+
+    def near_states(self) -> NDArray[np.int64]:
+        return np.array(sorted(self.targets), dtype=np.int64)
 
     def moves_from(self, number: int) -> Moves:
         """The lattice's moves out of ``number`` that stay inside the window."""
@@ -351,8 +358,11 @@ class PlanRepairer:
             return None
         heuristic = RejoinHeuristic(task, dist, table.longest_step, table.largest_turn)
         try:
-            with no_cycle_collection(), task.search_reached(self.search):
-                plan = self.search(task, heuristic)
+            if self.search is greedy_best_first_search and lattice_search.applies(task, heuristic):
+                plan = lattice_search.search(task, heuristic)  # the same plan, compiled
+            else:
+                with no_cycle_collection(), task.search_reached(self.search):
+                    plan = self.search(task, heuristic)
         except SearchStopped:
             return None
         return None if plan is None else [op.name for op in plan]

@@ -12,9 +12,10 @@ from pyperplan.search import astar_search, breadth_first_search, greedy_best_fir
 from domain.lattice import LatticeSettings, motion_table
 from domain.lattice_cache import MotionCache
 from domain.lattice_distances import centroid_need, distance_map
+from domain.lattice_heuristic import LatticeHeuristic
 from domain.lattice_planner import LatticePlanner
 from domain.lattice_states import LatticeState, StatePool, at_fact
-from domain.lattice_task import LatticeHeuristic, LatticeTask
+from domain.lattice_task import LatticeTask
 from domain.pyperplan_adapter import validate_plan
 from domain.worldmodel import WorldModel
 from primitives.library import load_bundled
