@@ -83,21 +83,13 @@ def tier_clearance(
 
 
 def inflated_grid(world: Any, inflation: float, contact_inflation: float, suspected: bool) -> Array:
-    """The grid ``world.inflated_clearance_at`` reads for these arguments, brought up to date
-    (by asking it for no points). The world model keeps its inflated grids private
-    (domain/inflated.py); this reads the one it would interpolate (the same array, so the same
-    values)."""
-    world.inflated_clearance_at(_NO_POINTS, inflation, contact_inflation, suspected=suspected)
-    key = (inflation, contact_inflation, suspected and world.any_suspected())
-    values: Array = world._grids._grids[key].values
+    """The grid ``world.inflated_clearance_at`` interpolates for these arguments (the same
+    array, so the same values)."""
+    values: Array = world.inflated_grid(inflation, contact_inflation, suspected=suspected)
     return values
 
 
-_NO_POINTS = np.zeros((0, 2))
-
-
 def _readable(world: Any) -> bool:
-    """Whether the world model's inflated grids can be read (a ``WorldModel`` as it is laid out
-    today; anything else keeps the plain callable and pyperplan's search)."""
-    grids = getattr(world, "_grids", None)
-    return isinstance(getattr(grids, "_grids", None), dict) and hasattr(world, "grid")
+    """Whether the world model hands out its inflated grids (a ``WorldModel``; anything else
+    keeps the plain callable and pyperplan's search)."""
+    return callable(getattr(world, "inflated_grid", None)) and hasattr(world, "grid")

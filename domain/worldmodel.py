@@ -242,18 +242,26 @@ class WorldModel:
         """Clearance with sensed cells grown by ``inflation`` metres and contact cells by
         ``contact_inflation`` (default: the same); known obstacles and walls exact. The head
         sees only part of a hidden obstacle, and a bumper only the point it pressed: the rest
-        lies beyond. With ``suspected``, suspected-surface cells count as contact cells.
-        One grid per inflation and tier, brought up to date only where the layers (with
-        ``suspected``, the marked cells: ``domain.marked``) changed since it was last read."""
+        lies beyond. With ``suspected``, suspected-surface cells count as contact cells."""
+        grid = self.inflated_grid(inflation, contact_inflation, suspected)
+        return bilinear(grid, self.grid, np.asarray(points, dtype=float), self.bounds)
+
+    def inflated_grid(
+        self, inflation: float, contact_inflation: float | None = None, suspected: bool = False
+    ) -> Array:
+        """The grid ``inflated_clearance_at`` interpolates (read only; compiled planners read
+        it directly): one per inflation and tier, brought up to date only where the layers
+        (with ``suspected``, the marked cells: ``domain.marked``) changed since it was read."""
         grow_contact = inflation if contact_inflation is None else contact_inflation
         if suspected and self.any_suspected():
             near = self._sync_marked().clearance()
         else:
             suspected, near = False, self._contact_map.get(self._contact)
         sensed = self._sensed_map.get(self._sensed.occupied)
-        key = (inflation, grow_contact, suspected)
-        grid = self._grids.get(key, self._static, sensed, near)
-        return bilinear(grid, self.grid, np.asarray(points, dtype=float), self.bounds)
+        grid: Array = self._grids.get(
+            (inflation, grow_contact, suspected), self._static, sensed, near
+        )
+        return grid
 
     def _sync_marked(self) -> MarkedCells:
         """The suspected tier's marked cells, marked afresh once per version of the model
@@ -301,10 +309,10 @@ class WorldModel:
         ok: NDArray[np.bool_] = np.all(walls >= need, axis=-1)  # wall distance is linear: ends
         points = axis_samples(a, b, 0.5 * self.grid.resolution)  # [B, C, n, 2]
         if self._known:
-            near_known = self._interpolate(self._static, points).min(axis=-1)  # [B, C]
+            near_known = bilinear(self._static, self.grid, points).min(axis=-1)  # [B, C]
             known_capsules_clear(self._known, a, b, near_known, need, self.grid.resolution, ok)
         if self._has_dynamic():
-            dynamic = self._interpolate(self._dynamic(), points)
+            dynamic = bilinear(self._dynamic(), self.grid, points)
             ok &= np.all(dynamic >= need[:, None], axis=(-2, -1))
         return ok.reshape(lead)
 
@@ -377,15 +385,10 @@ class WorldModel:
         if cached is None:
             # The distance to a union of cells is the smaller of the distances to its parts.
             sensed = self._sensed_map.get(self._sensed.occupied)
-            cached = self._store(
-                "dynamic", np.minimum(sensed, self._contact_map.get(self._contact))
-            )
+            contact = self._contact_map.get(self._contact)
+            cached = self._store("dynamic", np.minimum(sensed, contact))
         out: Array = cached
         return out
-
-    def _interpolate(self, grid: Array, pts: Array) -> Array:
-        """Bilinear between cell centres (nearest beyond the outer centres)."""
-        return bilinear(grid, self.grid, pts)
 
     def _cached(self, key: Any) -> Any:
         if self._cache_version != self.version:
