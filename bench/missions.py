@@ -25,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 from app.executor.runner import MissionRunner
+from app.executor.warm import warm_up
 from app.missions.spec import MissionSpec, load_mission
 from primitives.library import Library, load_bundled
 
@@ -115,6 +116,11 @@ def expected_of(spec: MissionSpec) -> tuple[str, str | None]:
     if spec.expect is None:
         return "succeeded", None
     return spec.expect.status, spec.expect.reason
+
+
+def _warm_worker() -> None:
+    """A pool process's start: the warm-up mission, as the service's workers run it."""
+    warm_up(_library())
 
 
 def run_job(job: Job) -> Row:
@@ -219,7 +225,7 @@ def run_all(jobs: list[Job], workers: int, cap: float) -> list[Row]:
     stuck: list[ProcessPoolExecutor] = []
     leftovers: list[Any] = []  # worker processes of pools with a stuck worker
     while todo:
-        pool = ProcessPoolExecutor(max_workers=workers)
+        pool = ProcessPoolExecutor(max_workers=workers, initializer=_warm_worker)
         futures: dict[int, Future[Row]] = {i: pool.submit(run_job, jobs[i]) for i in todo}
         broken = False
         for i in list(todo):

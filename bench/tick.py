@@ -8,7 +8,7 @@ strategy's replans and its per-tick checks and steering; the rest is the executo
 tree, Robot port). Times are exclusive (a sensor read inside a step counts as sensing only) and
 per control tick, best of ``--repeat`` runs. The split is in this thread's CPU time by default
 (``--clock cpu``): on a shared machine wall time also counts the time other processes held the
-core; ``--clock wall`` times it by the wall clock. Two short missions run first, untimed, so
+core; ``--clock wall`` times it by the wall clock. The project's warm-up mission runs first, untimed, so
 that one-off costs (imports, compiled kernels loading, motion tables) stay out of the figures. ``--against`` runs the same measurement on another
 checkout of the project (e.g. the main branch) in a child process, alternating with this one so
 both see the same machine load, and prints the speed-up per mission. Model/wall is model seconds
@@ -53,9 +53,6 @@ PARTS = (
 LABELS = ("sim step", "sensing", "world model", "replanning", "steering", "executor")
 
 
-# untimed first: one mission in the open, one sensing a hidden obstacle and replanning (the
-# compiled kernels of sensing, the world model and the plan guard load on first use)
-WARM_UP = ("examples/fig9a-single-goal.json", "examples/deform-while-avoiding.json")
 CLOCKS = {"cpu": time.thread_time, "wall": time.perf_counter}
 
 
@@ -84,14 +81,12 @@ class Clock:
 
 
 def warm_up() -> None:
-    """Run short missions once, untimed: imports, kernels and caches are ready afterwards."""
-    from app.executor.runner import MissionRunner
-    from app.missions.spec import load_mission
+    """The project's warm-up (``app.executor.warm``), untimed: imports, compiled kernels and
+    motion tables are ready afterwards."""
+    from app.executor.warm import warm_up as warm
     from primitives.library import load_bundled
 
-    library = load_bundled()
-    for path in WARM_UP:
-        MissionRunner(load_mission(ROOT / path), library).run()
+    warm(load_bundled())
 
 
 def measure(path: str, repeat: int, clock_name: str = "cpu") -> dict[str, Any]:

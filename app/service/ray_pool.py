@@ -19,6 +19,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+from app.executor.warm import warm_up
 from app.service.messages import Addressed, Job, Update, WorkerMessage
 from app.service.pool import WorkerLost
 from app.service.worker import run_mission
@@ -40,6 +41,7 @@ class MissionActor:
             with contextlib.suppress(OSError):
                 os.nice(niceness)  # on a shared machine the API keeps priority
         self.library, self.ws_rate = library, ws_rate
+        warm_up(library)  # kernels and motion tables loaded before the first mission comes
         self.outbox: queue_module.Queue[WorkerMessage] = queue_module.Queue()
         self.updates: queue_module.Queue[Addressed] = queue_module.Queue()
         self.cancel_flag = threading.Event()

@@ -21,6 +21,7 @@ from typing import Any, Protocol
 import py_trees
 
 from app.executor.runner import MissionError, MissionRunner, UpdateRefused
+from app.executor.warm import warm_up
 from app.missions.spec import MissionSpec
 from app.missions.status import MissionStatus
 from app.service.messages import (
@@ -237,6 +238,7 @@ def serve_missions(
     if niceness:
         with contextlib.suppress(OSError):
             os.nice(niceness)  # the API process keeps priority: requests stay fast under load
+    warm_up(library)  # kernels and motion tables loaded before the first mission comes
     while (job := jobs.get()) is not None:
         run_mission(job, library, ws_rate, queue, cancel, updates)
 

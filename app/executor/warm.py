@@ -1,0 +1,55 @@
+"""Warming a mission process up: one short mission run untimed before the real ones.
+
+A process's first mission loads what every later one reuses: the compiled kernels (numba's
+disk cache: sensing, the world model, the lattice search, the reachability test), the lattice
+motion tables and their compiled forms. That costs a few hundred milliseconds once, which a
+mission posted to a fresh worker would otherwise wait for. The service's pool workers and the
+benches' worker processes run this first.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+
+import numpy as np
+
+from app.missions.spec import MissionSpec
+from primitives.library import Library
+
+log = logging.getLogger(__name__)
+
+# Through a hidden post (sensing, a replan, the plan guard) and a forced deformation (another
+# shape's motion table) to a goal beside a wall.
+WARM_UP = {
+    "name": "warm-up",
+    "goals": [{"x": -2.0, "y": 0.9}],
+    "bounds": {"xmin": -3, "xmax": 3, "ymin": -3, "ymax": 3},
+    "obstacles": [
+        {"type": "circle", "x": -1.0, "y": 0.4, "radius": 0.3, "known": False},
+        {"type": "rectangle", "x": -2.0, "y": 1.6, "width": 1.5, "height": 0.3, "known": True},
+    ],
+    "events": [{"t": 20, "type": "deform", "joints": [0.3, 0.3, 0.3]}],
+}
+
+
+def warm_up(library: Library) -> float:
+    """Run the warm-up mission and one reachability question, untimed; returns the seconds it
+    took. Never raises: a process that cannot warm up still runs missions (cold)."""
+    from app.executor.runner import MissionRunner  # (the runner imports this package)
+    from domain.lattice import LatticeGrid, LatticeSettings, motion_table
+    from domain.lattice_reach import Reachability
+    from sim.world import Bounds
+
+    started = time.perf_counter()
+    try:
+        MissionRunner(MissionSpec.model_validate(WARM_UP), library).run()
+        settings = LatticeSettings()
+        table = motion_table(library, "straight", (0.0, 0.0, 0.0), settings)
+        if table is not None:  # the reachability kernel (loaded only after a long search)
+            grid = LatticeGrid(Bounds(-1.0, 1.0, -1.0, 1.0), settings)
+            reach = Reachability(grid, table, np.full(grid.nx * grid.ny, 1.0), 0.02)
+            reach.reaches((grid.nx // 2, grid.ny // 2, 0), (0.5, 0.5), 0.1)
+    except Exception:  # a warm-up is an optimisation, never a reason to stop
+        log.exception("warm-up mission failed; missions will run cold")
+    return time.perf_counter() - started
