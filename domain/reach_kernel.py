@@ -151,48 +151,20 @@ def _flood(  # pragma: no cover - compiled
     while len(from_start) > 0 and len(from_goal) > 0:
         if met_start + met_goal >= budget:
             return -1
-        if met_start <= met_goal:
+        start_side = met_start <= met_goal
+        if start_side:
             met_start += 1
-            number = heapq.heappop(from_start)[1]
-            if _grow(
-                clear,
-                shifts,
-                thresholds,
-                counts,
-                heads,
-                xs,
-                ys,
-                seen,
-                number,
-                FROM_START,
-                FROM_GOAL,
-                gx,
-                gy,
-                True,
-                from_start,
-            ):
-                return 1
         else:
             met_goal += 1
-            number = heapq.heappop(from_goal)[1]
-            if _grow(
-                clear,
-                shifts,
-                thresholds,
-                counts,
-                heads,
-                xs,
-                ys,
-                seen,
-                number,
-                FROM_GOAL,
-                FROM_START,
-                sx,
-                sy,
-                False,
-                from_goal,
-            ):
-                return 1
+        heap = from_start if start_side else from_goal
+        mine, other = (FROM_START, FROM_GOAL) if start_side else (FROM_GOAL, FROM_START)
+        tx, ty = (gx, gy) if start_side else (sx, sy)
+        number = heapq.heappop(heap)[1]
+        if _grow(
+            clear, shifts, thresholds, counts, heads, xs, ys, seen, number, mine, other, tx, ty,
+            start_side, heap,
+        ):  # fmt: skip
+            return 1
     return 0
 
 
