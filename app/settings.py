@@ -39,6 +39,9 @@ class Settings(BaseModel):
     worker_nice: int = Field(
         10, ge=0, le=19
     )  # niceness of mission workers: the API keeps priority over mission CPU (0: same priority)
+    # Each worker first runs a short untimed mission, loading compiled kernels and motion
+    # tables before its first real one (off: the first mission of each worker pays for them).
+    warm_up: bool = True
     executor: Literal["local", "ray"] = "local"  # where missions run: local processes or Ray
     ray_address: str | None = None  # a Ray cluster (e.g. ray://head:10001); None: a local Ray
     max_queued: int = Field(1000, ge=0, le=1_000_000)  # waiting missions before POST answers 503

@@ -84,6 +84,7 @@ class ProcessWorker:
             self.settings.ws_rate,
             os.getpid(),
             self.settings.worker_nice,
+            self.settings.warm_up,
         )
         self.process = CONTEXT.Process(
             target=serve_missions, args=args, name=f"mission-worker-{self.index}", daemon=True

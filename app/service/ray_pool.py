@@ -36,12 +36,13 @@ PACKAGES = ("app", "domain", "primitives", "sim")  # shipped to a cluster with e
 class MissionActor:
     """Runs missions one after another on a Ray worker; polled for their messages."""
 
-    def __init__(self, library: Library, ws_rate: float, niceness: int) -> None:
+    def __init__(self, library: Library, ws_rate: float, niceness: int, warm: bool) -> None:
         if niceness:
             with contextlib.suppress(OSError):
                 os.nice(niceness)  # on a shared machine the API keeps priority
         self.library, self.ws_rate = library, ws_rate
-        warm_up(library)  # kernels and motion tables loaded before the first mission comes
+        if warm:
+            warm_up(library)  # kernels and motion tables loaded before the first mission comes
         self.outbox: queue_module.Queue[WorkerMessage] = queue_module.Queue()
         self.updates: queue_module.Queue[Addressed] = queue_module.Queue()
         self.cancel_flag = threading.Event()
@@ -159,7 +160,7 @@ class RayWorker:
     def _spawn(self) -> None:
         settings = self.settings
         self.actor = self.remote.options(num_cpus=1, max_concurrency=4, max_restarts=0).remote(
-            self.library_ref, settings.ws_rate, settings.worker_nice
+            self.library_ref, settings.ws_rate, settings.worker_nice, settings.warm_up
         )
         self.lost, self.pending = False, None
 

@@ -230,6 +230,7 @@ def serve_missions(
     ws_rate: float,
     server_pid: int,
     niceness: int = 10,
+    warm: bool = True,
 ) -> None:
     """A pool process's target: run each job as it comes until None (or the server is gone)."""
     threading.Thread(
@@ -238,7 +239,8 @@ def serve_missions(
     if niceness:
         with contextlib.suppress(OSError):
             os.nice(niceness)  # the API process keeps priority: requests stay fast under load
-    warm_up(library)  # kernels and motion tables loaded before the first mission comes
+    if warm:
+        warm_up(library)  # kernels and motion tables loaded before the first mission comes
     while (job := jobs.get()) is not None:
         run_mission(job, library, ws_rate, queue, cancel, updates)
 

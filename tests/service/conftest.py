@@ -46,6 +46,8 @@ def database_url(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[str
 
 @pytest.fixture
 def client(tmp_path: Path) -> Iterator[TestClient]:
-    app = create_app(Settings(database_url=f"sqlite:///{tmp_path / 'api.db'}", max_running=4))
+    app = create_app(
+        Settings(database_url=f"sqlite:///{tmp_path / 'api.db'}", max_running=4, warm_up=False)
+    )
     with TestClient(app) as c:
         yield c
