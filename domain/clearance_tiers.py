@@ -55,7 +55,7 @@ def tier_clearance(
             return out
 
         def grids() -> ClearanceGrids:
-            values = inflated_grid(world, tier.sensed, tier.grow, avoid)
+            values = world.inflated_grid(tier.sensed, tier.grow, suspected=avoid)
             return ClearanceGrids.of(values, world.grid, world.bounds)
 
         return GridClearance(clearance, grids) if _readable(world) else clearance
@@ -75,18 +75,11 @@ def tier_clearance(
         return out
 
     def off_goals_grids() -> ClearanceGrids:
-        values = inflated_grid(world, tier.sensed, tier.grow, True)
-        near = inflated_grid(world, tier.sensed, CONTACT_BARE, True)
+        values = world.inflated_grid(tier.sensed, tier.grow, suspected=True)
+        near = world.inflated_grid(tier.sensed, CONTACT_BARE, suspected=True)
         return ClearanceGrids.of(values, world.grid, world.bounds, near, centres, GOAL_UNSUSPECTED)
 
     return GridClearance(off_goals, off_goals_grids) if _readable(world) else off_goals
-
-
-def inflated_grid(world: Any, inflation: float, contact_inflation: float, suspected: bool) -> Array:
-    """The grid ``world.inflated_clearance_at`` interpolates for these arguments (the same
-    array, so the same values)."""
-    values: Array = world.inflated_grid(inflation, contact_inflation, suspected=suspected)
-    return values
 
 
 def _readable(world: Any) -> bool:

@@ -56,17 +56,21 @@ def body_rows(
 
 
 def free_configurations(
-    grid: LatticeGrid, table: MotionTable, at_centres: Array, margin: float
+    grid: LatticeGrid,
+    table: MotionTable,
+    at_centres: Array,
+    margin: float,
+    rows: tuple[NDArray[np.int64], Array, NDArray[np.int64]] | None = None,
 ) -> NDArray[np.bool_]:
     """``[K, nx, ny]``: where the resting body may lie (relaxed by half a cell diagonal), from
-    the clearance at ``grid.centres``."""
+    the clearance at ``grid.centres`` (``rows``: ``body_rows`` of the same, if made already)."""
     nx, ny, r = grid.nx, grid.ny, grid.settings.resolution
     clear = at_centres.reshape(nx, ny)
     # Padded with -inf: a body point off the grid is outside the arena.
     pad = max(1, math.ceil(table.geometry.body_length / r) + 2)
     padded = np.full((nx + 2 * pad, ny + 2 * pad), -np.inf)
     padded[pad : pad + nx, pad : pad + ny] = clear
-    shifts, thresholds, counts = body_rows(grid, table, margin)
+    shifts, thresholds, counts = rows if rows is not None else body_rows(grid, table, margin)
     free = np.ones((grid.settings.orientations, nx, ny), dtype=bool)
     for k, n in enumerate(counts.tolist()):
         if n < 0:
@@ -154,7 +158,8 @@ class Reachability:
     def _labelled(self) -> tuple[NDArray[np.bool_], NDArray[np.int32], NDArray[np.int32]]:
         """Every free configuration's component (built on the first question)."""
         if self._labels is None:
-            free = free_configurations(self.grid, self.table, self.at_centres, self.margin)
+            rows = (self.shifts, self.thresholds, self.counts)
+            free = free_configurations(self.grid, self.table, self.at_centres, self.margin, rows)
             structure = np.zeros((3, 3, 3), dtype=bool)
             structure[1] = True  # the 8 neighbouring cells at one orientation ...
             structure[0, 1, 1] = structure[2, 1, 1] = True  # ... and one orientation step in place
