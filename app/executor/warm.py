@@ -14,8 +14,12 @@ import time
 
 import numpy as np
 
+from app.executor.runner import MissionRunner
 from app.missions.spec import MissionSpec
+from domain.lattice import LatticeGrid, LatticeSettings, motion_table
+from domain.lattice_reach import Reachability
 from primitives.library import Library
+from sim.world import Bounds
 
 log = logging.getLogger(__name__)
 
@@ -36,11 +40,6 @@ WARM_UP = {
 def warm_up(library: Library) -> float:
     """Run the warm-up mission and one reachability question, untimed; returns the seconds it
     took. Never raises: a process that cannot warm up still runs missions (cold)."""
-    from app.executor.runner import MissionRunner  # (the runner imports this package)
-    from domain.lattice import LatticeGrid, LatticeSettings, motion_table
-    from domain.lattice_reach import Reachability
-    from sim.world import Bounds
-
     started = time.perf_counter()
     try:
         MissionRunner(MissionSpec.model_validate(WARM_UP), library).run()
