@@ -5,14 +5,19 @@ contacts and what the head saw passed only just."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
+from numpy.typing import NDArray
 
 from domain.grid_clearance import ClearanceGrids, GridClearance
+from domain.interpolate import bilinear
 from sim.robot import Array
+
+if TYPE_CHECKING:
+    from domain.worldmodel import WorldModel
 
 SENSED_INFLATION = 0.05  # metres plans keep beyond what the head saw of a hidden obstacle
 CONTACT_INFLATION = 0.1  # ... and beyond where a bumper touched one (it felt a single point)
@@ -27,9 +32,10 @@ Suspected = Literal["all", "off-goals", "none"]
 
 @dataclass(frozen=True)
 class Tier:
-    """One way of keeping clear: suspected surfaces ``all`` avoided, avoided ``off-goals``
-    (within ``GOAL_UNSUSPECTED`` of a goal, they and contacts kept only ``CONTACT_BARE`` clear),
-    or ``none``; contacts grown by ``grow`` metres, sensed cells by ``sensed``."""
+    """One way of keeping clear: suspected surfaces ``all`` avoided, avoided ``off-goals`` (in
+    the world model's cells whose centre lies within ``GOAL_UNSUSPECTED`` of a goal, they and
+    contacts kept only ``CONTACT_BARE`` clear; bilinear across the circle's edge), or ``none``;
+    contacts grown by ``grow`` metres, sensed cells by ``sensed``."""
 
     suspected: Suspected
     grow: float = CONTACT_INFLATION
@@ -43,46 +49,39 @@ def tiers(any_suspected: bool) -> list[Tier]:
 
 
 def tier_clearance(
-    world: Any, tier: Tier, goals: Sequence[tuple[float, float]] = ()
-) -> Callable[[Array], Array]:
-    """The clearance (m) at world points ``[..., 2]`` that plans of this tier keep (with its
-    compiled form, ``GridClearance.grids``, where the world model's grids can be read)."""
-    if tier.suspected != "off-goals" or not goals:
-        avoid = tier.suspected != "none"
+    world: WorldModel, tier: Tier, goals: Sequence[tuple[float, float]] = ()
+) -> GridClearance:
+    """The clearance (m) at world points ``[..., 2]`` that plans of this tier keep, bilinear
+    over one grid of the world model's, with its compiled form (``GridClearance.grids``)."""
+    avoid = tier.suspected != "none"
+    if tier.suspected == "off-goals" and goals:
+        close = _close_to(world, goals)
 
-        def clearance(pts: Array) -> Array:
-            out: Array = world.inflated_clearance_at(pts, tier.sensed, tier.grow, suspected=avoid)
-            return out
+        def values() -> Array:
+            # One grid, so that the compiled search reads a single grid per point: the
+            # cells round a goal from the closely passed grid, the rest from the avoiding one.
+            far = world.inflated_grid(tier.sensed, tier.grow, suspected=True)
+            near = world.inflated_grid(tier.sensed, CONTACT_BARE, suspected=True)
+            return np.where(close, near, far)
+    else:
 
-        def grids() -> ClearanceGrids:
-            values = world.inflated_grid(tier.sensed, tier.grow, suspected=avoid)
-            return ClearanceGrids.of(values, world.grid, world.bounds)
+        def values() -> Array:
+            return world.inflated_grid(tier.sensed, tier.grow, suspected=avoid)
 
-        return GridClearance(clearance, grids) if _readable(world) else clearance
+    def clearance(pts: Array) -> Array:
+        return bilinear(values(), world.grid, np.asarray(pts, dtype=float), world.bounds)
+
+    def grids() -> ClearanceGrids:
+        return ClearanceGrids.of(values(), world.grid, world.bounds)
+
+    return GridClearance(clearance, grids)
+
+
+def _close_to(world: WorldModel, goals: Sequence[tuple[float, float]]) -> NDArray[np.bool_]:
+    """The world model's cells whose centre lies within ``GOAL_UNSUSPECTED`` of a goal."""
+    grid = world.grid
+    xs, ys = np.meshgrid(grid.xs, grid.ys, indexing="ij")
     centres = np.asarray(goals, dtype=float)
-
-    def off_goals(pts: Array) -> Array:
-        pts = np.asarray(pts, dtype=float)
-        out: Array = np.array(
-            world.inflated_clearance_at(pts, tier.sensed, tier.grow, suspected=True),
-            dtype=float,
-        )
-        close = np.linalg.norm(pts[..., None, :] - centres, axis=-1).min(axis=-1) < GOAL_UNSUSPECTED
-        if np.any(close):  # the second lookup only where it decides
-            out[close] = world.inflated_clearance_at(
-                pts[close], tier.sensed, CONTACT_BARE, suspected=True
-            )
-        return out
-
-    def off_goals_grids() -> ClearanceGrids:
-        values = world.inflated_grid(tier.sensed, tier.grow, suspected=True)
-        near = world.inflated_grid(tier.sensed, CONTACT_BARE, suspected=True)
-        return ClearanceGrids.of(values, world.grid, world.bounds, near, centres, GOAL_UNSUSPECTED)
-
-    return GridClearance(off_goals, off_goals_grids) if _readable(world) else off_goals
-
-
-def _readable(world: Any) -> bool:
-    """Whether the world model hands out its inflated grids (a ``WorldModel``; anything else
-    keeps the plain callable and pyperplan's search)."""
-    return callable(getattr(world, "inflated_grid", None)) and hasattr(world, "grid")
+    dist = np.hypot(xs[..., None] - centres[:, 0], ys[..., None] - centres[:, 1]).min(axis=-1)
+    close: NDArray[np.bool_] = dist < GOAL_UNSUSPECTED
+    return close

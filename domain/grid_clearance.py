@@ -4,17 +4,15 @@ A planner's clearance is a Python callable (world points -> metres), bilinear be
 centres of a world model's grid and at most the distance to the walls
 (``domain.interpolate.bilinear``). A compiled search cannot call back into Python for every
 swept sample point, so a clearance can also hand out ``ClearanceGrids``: the grid values, where
-the grid lies and the wall box, and for the ``off-goals`` tier (domain/clearance_tiers.py) the
-second grid read within ``radius`` of a goal centre. ``clearance_at`` evaluates it at one point
-with ``interpolate._compiled``'s arithmetic, so it gives the callable's answer value for value
-(a test holds it to that).
+the grid lies and the wall box. ``bilinear_at`` evaluates it at one point with
+``interpolate._compiled``'s arithmetic, so it gives the callable's answer value for value (a test
+holds it to that).
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -22,10 +20,6 @@ from domain.grid import Grid
 from domain.occupancy_kernel import _jit
 from sim.robot import Array
 from sim.world import Bounds
-
-_NOWHERE = np.zeros((0, 0))  # no second grid
-_NOWHERE.flags.writeable = False
-_NO_GOALS = np.zeros((0, 2))
 
 
 def _read_only(values: Array) -> Array:
@@ -38,18 +32,14 @@ def _read_only(values: Array) -> Array:
 
 @dataclass(frozen=True)
 class ClearanceGrids:
-    """A clearance as grids: ``values`` ``[nx, ny]`` at the cell centres of a grid whose first
+    """A clearance as a grid: ``values`` ``[nx, ny]`` at the cell centres of a grid whose first
     cell's corner is ``origin`` with cells ``resolution`` wide, at most the distance to the wall
-    box ``walls``; within ``radius`` of any of ``goals`` ``[G, 2]`` read from ``near`` instead
-    (when given)."""
+    box ``walls``."""
 
     values: Array
     origin: tuple[float, float]
     resolution: float
     walls: tuple[float, float, float, float]  # xmin, xmax, ymin, ymax
-    near: Array = field(default_factory=lambda: _NOWHERE)
-    goals: Array = field(default_factory=lambda: _NO_GOALS)
-    radius: float = 0.0
 
     @classmethod
     def of(
@@ -57,33 +47,26 @@ class ClearanceGrids:
         values: Array,
         grid: Grid,
         walls: Bounds,
-        near: Array | None = None,
-        goals: Array | None = None,
-        radius: float = 0.0,
     ) -> ClearanceGrids:
-        """The form of ``bilinear(values, grid, points, walls)`` (and of its ``off-goals`` mix
-        with ``near`` within ``radius`` of ``goals``)."""
+        """The form of ``bilinear(values, grid, points, walls)``."""
         return cls(
             _read_only(values),
             (float(grid.origin[0]), float(grid.origin[1])),
             float(grid.resolution),
             (walls.xmin, walls.xmax, walls.ymin, walls.ymax),
-            _read_only(near) if near is not None else _NOWHERE,
-            np.ascontiguousarray(goals if goals is not None else _NO_GOALS, dtype=np.float64),
-            float(radius),
         )
 
     @property
     def geometry(self) -> Array:
-        """``[ox, oy, resolution, xmin, xmax, ymin, ymax, radius]`` as the kernels take it."""
-        return np.array([*self.origin, self.resolution, *self.walls, self.radius])
+        """``[ox, oy, resolution, xmin, xmax, ymin, ymax]`` as the kernels take it."""
+        return np.array([*self.origin, self.resolution, *self.walls])
 
     def __call__(self, pts: Array) -> Array:
         """The clearance at points ``[..., 2]`` (the compiled evaluation, for checks)."""
         points = np.ascontiguousarray(pts, dtype=np.float64)
         flat = points.reshape(-1, 2)
         out = np.empty(flat.shape[0])
-        _many(self.values, self.near, self.goals, self.geometry, flat, out)
+        _many(self.values, self.geometry, flat, out)
         return out.reshape(points.shape[:-1])
 
 
@@ -143,22 +126,8 @@ def bilinear_at(  # pragma: no cover - compiled
 
 
 @_jit
-def clearance_at(  # pragma: no cover - compiled
-    values: Array, near: Array, goals: Array, geo: Array, x: float, y: float
-) -> float:
-    """The clearance of ``ClearanceGrids`` at one point (``off-goals``: ``near`` where the
-    point lies within the radius of a goal, by numpy's norm: the root of the summed squares)."""
-    if near.shape[0] > 0:
-        for g in range(goals.shape[0]):
-            dx, dy = x - goals[g, 0], y - goals[g, 1]
-            if math.sqrt(dx * dx + dy * dy) < geo[7]:
-                return float(bilinear_at(near, geo, x, y))
-    return float(bilinear_at(values, geo, x, y))
-
-
-@_jit
 def _many(  # pragma: no cover - compiled
-    values: Array, near: Array, goals: Array, geo: Array, pts: Array, out: Array
+    values: Array, geo: Array, pts: Array, out: Array
 ) -> None:
     for p in range(pts.shape[0]):
-        out[p] = clearance_at(values, near, goals, geo, pts[p, 0], pts[p, 1])
+        out[p] = bilinear_at(values, geo, pts[p, 0], pts[p, 1])

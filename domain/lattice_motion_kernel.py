@@ -9,9 +9,7 @@ turn until the first that fails.
 
 from __future__ import annotations
 
-import math
-
-from domain.grid_clearance import clearance_at
+from domain.grid_clearance import bilinear_at
 from domain.occupancy_kernel import _jit
 from sim.robot import Array
 
@@ -19,8 +17,6 @@ from sim.robot import Array
 @_jit
 def _distinct_clearance(  # pragma: no cover - compiled
     values: Array,
-    near: Array,
-    goals: Array,
     geo: Array,
     cx: float,
     cy: float,
@@ -37,8 +33,8 @@ def _distinct_clearance(  # pragma: no cover - compiled
     own (``su``, ``sv``: room for the grid coordinates), which the compiler vectorises, the
     grid reads in a second."""
     gnx, gny = values.shape
-    flat, flat_near = values.ravel(), near.ravel()
-    ox, oy, res, radius = geo[0], geo[1], geo[2], geo[7]
+    flat = values.ravel()
+    ox, oy, res = geo[0], geo[1], geo[2]
     xmin, xmax, ymin, ymax = geo[3], geo[4], geo[5], geo[6]
     top_u, top_v = gnx - 1.0, gny - 1.0
     i_top, j_top = max(gnx - 2, 0), max(gny - 2, 0)
@@ -49,32 +45,14 @@ def _distinct_clearance(  # pragma: no cover - compiled
         su[q] = min(max((x - ox) / res - 0.5, 0.0), top_u)
         sv[q] = min(max((y - oy) / res - 0.5, 0.0), top_v)
         out[q] = min(min(x - xmin, xmax - x), min(y - ymin, ymax - y))  # the walls
-    if near.shape[0] == 0:
-        for q in range(count):
-            u, v = su[q], sv[q]
-            i0 = min(int(u), i_top)
-            j0 = min(int(v), j_top)
-            fu, fv = u - i0, v - j0
-            base = i0 * gny + j0
-            low = flat[base] * (1 - fv) + flat[base + dj] * fv
-            high = flat[base + di] * (1 - fv) + flat[base + di + dj] * fv
-            out[q] = min(low * (1 - fu) + high * fu, out[q])
-        return
-    for q in range(count):  # off-goals: the second grid within the radius of a goal
-        grid = flat
-        x, y = cx + ux[q], cy + uy[q]
-        for g in range(goals.shape[0]):
-            gx, gy = x - goals[g, 0], y - goals[g, 1]
-            if math.sqrt(gx * gx + gy * gy) < radius:
-                grid = flat_near
-                break
+    for q in range(count):
         u, v = su[q], sv[q]
         i0 = min(int(u), i_top)
         j0 = min(int(v), j_top)
         fu, fv = u - i0, v - j0
         base = i0 * gny + j0
-        low = grid[base] * (1 - fv) + grid[base + dj] * fv
-        high = grid[base + di] * (1 - fv) + grid[base + di + dj] * fv
+        low = flat[base] * (1 - fv) + flat[base + dj] * fv
+        high = flat[base + di] * (1 - fv) + flat[base + di + dj] * fv
         out[q] = min(low * (1 - fu) + high * fu, out[q])
 
 
@@ -85,8 +63,6 @@ def free_bits(  # pragma: no cover - compiled
     gf: Array,
     at_centres: Array,
     values: Array,
-    near: Array,
-    goals: Array,
     geo: Array,
     ux: Array,
     uy: Array,
@@ -108,10 +84,7 @@ def free_bits(  # pragma: no cover - compiled
     i, j = cell // ny, cell % ny
     cx = gf[0] + (i + 0.5) * gf[2]
     cy = gf[1] + (j + 0.5) * gf[2]
-    if at_centres.shape[0] > 0:
-        here = at_centres[cell]
-    else:
-        here = clearance_at(values, near, goals, geo, cx, cy)
+    here = at_centres[cell] if at_centres.shape[0] > 0 else bilinear_at(values, geo, cx, cy)
     n_motions = segments.shape[1] - 1
     bits = 0
     if here >= gf[3]:
@@ -119,7 +92,7 @@ def free_bits(  # pragma: no cover - compiled
     else:
         n = n_unique[k]
         _distinct_clearance(
-            values, near, goals, geo, cx, cy, ux[k], uy[k], n, scratch[0], scratch[1], scratch[2]
+            values, geo, cx, cy, ux[k], uy[k], n, scratch[0], scratch[1], scratch[2]
         )
         clear = scratch[0]
         for m in range(n_motions):

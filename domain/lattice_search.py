@@ -263,5 +263,5 @@ def search(task: LatticeTask, heuristic: Any) -> list[Operator] | None:
             heuristic.best = (float(s.best_h[0]), _Path(s, task, best))
 
 
-def _world_inputs(grids: ClearanceGrids) -> tuple[Array, Array, Array, Array]:
-    return grids.values, grids.near, grids.goals, grids.geometry
+def _world_inputs(grids: ClearanceGrids) -> tuple[Array, Array]:
+    return grids.values, grids.geometry

@@ -151,8 +151,6 @@ def run(  # pragma: no cover - compiled
     gf: Array,
     at_centres: Array,
     values: Array,
-    near: Array,
-    goals: Array,
     geo: Array,
     ux: Array,
     uy: Array,
@@ -203,8 +201,8 @@ def run(  # pragma: no cover - compiled
         count[NODES] = 1
         count[HEAP] = _push(hh, ht, hn, 0, h, 0, 0)
     status = _expand(
-        chunk, budget, start, start_bits, near_states, dims, gf, at_centres, values, near,
-        goals, geo, ux, uy, inverse, needs, segments, deltas, cell_reach, n_unique, targets,
+        chunk, budget, start, start_bits, near_states, dims, gf, at_centres, values,
+        geo, ux, uy, inverse, needs, segments, deltas, cell_reach, n_unique, targets,
         kind, hf, base, way, narrow, window_dist, ks, ck, cv, cs, use_cache, tk, tv, ts, node_state,
         node_parent, node_g, node_op, hh, ht, hn, count, best_h, exp_number, exp_bits,
         exp_near, scratch,
@@ -215,7 +213,7 @@ def run(  # pragma: no cover - compiled
 @_jit
 def _expand(  # pragma: no cover - compiled
     chunk: int, budget: int, start: int, start_bits: int, near_states: Array,
-    dims: Array, gf: Array, at_centres: Array, values: Array, near: Array, goals: Array,
+    dims: Array, gf: Array, at_centres: Array, values: Array,
     geo: Array, ux: Array, uy: Array, inverse: Array, needs: Array, segments: Array,
     deltas: Array, cell_reach: Array, n_unique: Array, targets: Array,
     kind: int, hf: Array, base: Array, way: Array, narrow: Array, window_dist: Array, ks: Array,
@@ -264,8 +262,6 @@ def _expand(  # pragma: no cover - compiled
                 gf,
                 at_centres,
                 values,
-                near,
-                goals,
                 geo,
                 ux,
                 uy,
