@@ -56,13 +56,16 @@ def tier_clearance(
     avoid = tier.suspected != "none"
     if tier.suspected == "off-goals" and goals:
         close = _close_to(world, goals)
+        merged: list[tuple[int, Array]] = []  # (model version, grid): made once per version
 
         def values() -> Array:
             # One grid, so that the compiled search reads a single grid per point: the
             # cells round a goal from the closely passed grid, the rest from the avoiding one.
-            far = world.inflated_grid(tier.sensed, tier.grow, suspected=True)
-            near = world.inflated_grid(tier.sensed, CONTACT_BARE, suspected=True)
-            return np.where(close, near, far)
+            if not merged or merged[0][0] != world.version:
+                far = world.inflated_grid(tier.sensed, tier.grow, suspected=True)
+                near = world.inflated_grid(tier.sensed, CONTACT_BARE, suspected=True)
+                merged[:] = [(world.version, np.where(close, near, far))]
+            return merged[0][1]
     else:
 
         def values() -> Array:

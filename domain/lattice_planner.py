@@ -121,6 +121,25 @@ class LatticePlanner:
             )
         return self._maps[key]
 
+    def cut_off(
+        self,
+        table: MotionTable,
+        clearance: Clearance,
+        version: Any,
+        pose: Sequence[float],
+        goals: Sequence[LegGoal],
+    ) -> bool:
+        """Whether some goal's distance map has no way to the start's cell: what ``plan``
+        answers ``unreachable`` to before any search (the maps are kept for it)."""
+        si, sj, _ = self.key_of(table, pose)
+        here = tuple(float(v) for v in self.grid.centre(si, sj))
+        return any(
+            not math.isfinite(
+                self.distances(table, clearance, version, g, (here[0], here[1]))[si, sj]
+            )
+            for g in goals
+        )
+
     def reachability(self, table: MotionTable, clearance: Clearance, version: Any) -> Reachability:
         """The free configuration space's components for this world version and shape."""
         key = (version, table.shape, tuple(np.round(table.joints, 3)))

@@ -55,6 +55,13 @@ class Running:
     left: float
 
 
+def held_joints(joints: Sequence[float]) -> tuple[float, float, float]:
+    """The joint angles a body's lattice is made for: the sensed ones to 0.05 rad (the
+    footprint of the real body; one motion table per rounded shape)."""
+    a, b, c = (round(v / 0.05) * 0.05 for v in joints)
+    return (a, b, c)
+
+
 class NavigationStrategy:
     """Plans on the lattice of the body's shape; executes moves as grounded primitives."""
 
@@ -83,11 +90,9 @@ class NavigationStrategy:
 
     # -- the lattice of the current body --------------------------------------------------------
     def table_for(self, shape: str, joints: tuple[float, float, float]) -> MotionTable | None:
-        held = tuple(round(v / 0.05) * 0.05 for v in joints)  # the footprint of the real body
-        key = (shape, held)
+        key = (shape, held_joints(joints))
         if key not in self._tables:
-            joints3 = (held[0], held[1], held[2])
-            self._tables[key] = motion_table(self.library, shape, joints3, self.settings)
+            self._tables[key] = motion_table(self.library, shape, key[1], self.settings)
         return self._tables[key]
 
     # -- PlanningStrategy ----------------------------------------------------------------------
@@ -236,7 +241,10 @@ class NavigationStrategy:
         goals = tuple((g.x, g.y) for g in s.goals)
         loosest = tiers(s.world.any_suspected())[-1]
         clearance = tier_clearance(s.world, loosest, goals)
-        reach = self.planner.reachability(table, clearance, (s.world.version, loosest, goals))
+        version = (s.world.version, loosest, goals)
+        if self.planner.cut_off(table, clearance, version, pose, s.goals):
+            return False  # the centroid's distance map already says so (no 3-D labelling)
+        reach = self.planner.reachability(table, clearance, version)
         start = self.planner.key_of(table, pose)
         return all(reach.reaches(start, (g.x, g.y), leg_reach(g)) for g in s.goals)
 

@@ -18,13 +18,15 @@ from app.executor.runner import MissionRunner
 from app.missions.spec import MissionSpec
 from domain.lattice import LatticeGrid, LatticeSettings, motion_table
 from domain.lattice_reach import Reachability
+from domain.navigation_strategy import held_joints
 from primitives.library import Library
+from primitives.shapes import SHAPES
 from sim.world import Bounds
 
 log = logging.getLogger(__name__)
 
 # Through a hidden post (sensing, a replan, the plan guard) and a forced deformation (another
-# shape's motion table) to a goal beside a wall.
+# shape's motion table) to a goal beside a wall; then every library shape's motion table.
 WARM_UP = {
     "name": "warm-up",
     "goals": [{"x": -2.0, "y": 0.9}],
@@ -44,6 +46,8 @@ def warm_up(library: Library) -> float:
     try:
         MissionRunner(MissionSpec.model_validate(WARM_UP), library).run()
         settings = LatticeSettings()
+        for shape in library.lattice_shapes():  # every shape's table (reshaping reads them)
+            motion_table(library, shape, held_joints(SHAPES[shape].joints), settings)
         table = motion_table(library, "straight", (0.0, 0.0, 0.0), settings)
         if table is not None:  # the reachability kernel (loaded only after a long search)
             grid = LatticeGrid(Bounds(-1.0, 1.0, -1.0, 1.0), settings)

@@ -8,7 +8,12 @@ import pytest
 from app.executor import warm
 from app.executor.runner import MissionRunner
 from app.missions.spec import MissionSpec
+from domain import lattice
+from domain.lattice_planner import LatticePlanner
+from domain.navigation_strategy import NavigationStrategy, held_joints
 from primitives.library import load_bundled
+from primitives.shapes import SHAPES
+from sim.world import Bounds
 
 
 def test_the_warm_up_mission_senses_replans_and_arrives() -> None:
@@ -26,3 +31,21 @@ def test_a_failing_warm_up_is_logged_not_raised(
         seconds = warm.warm_up(load_bundled())
     assert seconds >= 0.0
     assert "warm-up mission failed" in caplog.text
+
+
+def test_after_the_warm_up_every_shape_s_table_is_at_hand(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A reshape in a worker's first mission reads another shape's table: made in the warm-up."""
+    library = load_bundled()
+    monkeypatch.setattr(lattice, "_TABLES", {})
+    warm.warm_up(library)
+    made = {(key[0], key[1], key[2]) for key in lattice._TABLES}
+    settings = lattice.LatticeSettings()
+    for shape in library.lattice_shapes():
+        joints = held_joints(SHAPES[shape].joints)
+        assert (id(library), shape, joints) in made
+        before = len(lattice._TABLES)
+        planner = LatticePlanner(Bounds(-1.0, 1.0, -1.0, 1.0), settings)
+        NavigationStrategy(library, planner).table_for(shape, joints)
+        assert len(lattice._TABLES) == before  # the strategy finds it: no new table
