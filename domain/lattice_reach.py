@@ -82,10 +82,7 @@ def free_configurations(
     return free
 
 
-FLOOD_BUDGET = 20_000  # configurations a flood may always meet before the labelling answers
-FLOOD_SHARE = 16  # ... or one in this many of the lattice's configurations, if more: a flood
-# meets a configuration for about what labelling spends on 16 (hidden-enclosure's pen in a
-# 10 m arena: flooded in 17 ms, where labelling its 2.56 M configurations took 44 ms)
+FLOOD_BUDGET = 20_000  # configurations a flood meets before the labelling answers instead
 
 
 class Reachability:
@@ -104,10 +101,8 @@ class Reachability:
         self.shifts, self.thresholds, self.counts = body_rows(grid, table, margin)
         self._labels: tuple[NDArray[np.bool_], NDArray[np.int32], NDArray[np.int32]] | None = None
         # Configurations the flood may meet before it leaves the question to the labelling
-        # (two large components: a flood costs more per configuration than the labelling, so
-        # at worst a question costs about twice what labelling alone would).
-        configurations = grid.nx * grid.ny * grid.settings.orientations
-        self.flood_budget = max(FLOOD_BUDGET, configurations // FLOOD_SHARE)
+        # (two large components: a flood costs more per configuration than the labelling).
+        self.flood_budget = FLOOD_BUDGET
 
     def reaches(
         self, start: Key, goal: tuple[float, float], reach: float, compiled: bool | None = None
