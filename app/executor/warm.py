@@ -18,6 +18,7 @@ from app.executor.runner import MissionRunner
 from app.missions.spec import MissionSpec
 from domain.lattice import LatticeGrid, LatticeSettings, motion_table
 from domain.lattice_reach import Reachability
+from domain.lattice_search import kernel_table
 from domain.navigation_strategy import held_joints
 from primitives.library import Library
 from primitives.shapes import SHAPES
@@ -44,10 +45,13 @@ def warm_up(library: Library) -> float:
     took. Never raises: a process that cannot warm up still runs missions (cold)."""
     started = time.perf_counter()
     try:
-        MissionRunner(MissionSpec.model_validate(WARM_UP), library).run()
-        settings = LatticeSettings()
-        for shape in library.lattice_shapes():  # every shape's table (reshaping reads them)
-            motion_table(library, shape, held_joints(SHAPES[shape].joints), settings)
+        spec = MissionSpec.model_validate(WARM_UP)
+        MissionRunner(spec, library).run()
+        settings = LatticeSettings(margin=spec.planner.margin)  # as missions' planners have it
+        for shape in library.lattice_shapes():  # every shape's tables (reshaping reads them)
+            made = motion_table(library, shape, held_joints(SHAPES[shape].joints), settings)
+            if made is not None:
+                kernel_table(made, settings.margin)
         table = motion_table(library, "straight", (0.0, 0.0, 0.0), settings)
         if table is not None:  # the reachability kernel (loaded only after a long search)
             grid = LatticeGrid(Bounds(-1.0, 1.0, -1.0, 1.0), settings)

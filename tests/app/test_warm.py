@@ -41,7 +41,9 @@ def test_after_the_warm_up_every_shape_s_table_is_at_hand(
     monkeypatch.setattr(lattice, "_TABLES", {})
     warm.warm_up(library)
     made = {(key[0], key[1], key[2]) for key in lattice._TABLES}
-    settings = lattice.LatticeSettings()
+    settings = lattice.LatticeSettings(
+        margin=MissionSpec.model_validate(warm.WARM_UP).planner.margin
+    )
     for shape in library.lattice_shapes():
         joints = held_joints(SHAPES[shape].joints)
         assert (id(library), shape, joints) in made
