@@ -154,6 +154,7 @@ class Library:
             format=FORMAT, version=FORMAT_VERSION, code_version=code_version, entries=list(entries)
         )
         self._by_name = {e.id: e for e in self.file.entries}
+        self._of_shape: dict[tuple[str, Family | None], tuple[Primitive, ...]] = {}
         self._by_name.update({e.label: e for e in self.file.entries if e.label})
 
     def __len__(self) -> int:
@@ -178,7 +179,13 @@ class Library:
     def of_shape(self, shape: str, family: Family | None = "paper") -> list[Primitive]:
         """Entries of ``shape`` of one family (paper by default, as the generalisers and the
         paper's move actions expect), or of every family with ``family=None``."""
-        return [e for e in self if e.shape == shape and family in (None, e.family)]
+        key = (shape, family)
+        got = self._of_shape.get(key)
+        if got is None:  # the entries never change: asked every tick by the reactive moves
+            got = self._of_shape[key] = tuple(
+                e for e in self if e.shape == shape and family in (None, e.family)
+            )
+        return list(got)
 
     def paper(self) -> list[Primitive]:
         """The paper-family entries, in library order."""
