@@ -48,11 +48,10 @@ def distance_map(
     centroid may sit off a centre); cells within ``free`` of the goal (where the body reaches
     the goal with its head) are passable."""
     nx, ny, r = grid.nx, grid.ny, grid.settings.resolution
-    centres = grid.centres
     ok = at_centres >= need - r * math.sqrt(0.5)
     ok |= _in_reach(grid, at_centres, goal, free)
     if start is not None:  # the robot is there: it may be touching what it just bumped into
-        ok |= np.hypot(centres[:, 0] - start[0], centres[:, 1] - start[1]) <= START_FREE
+        ok[cells_within(grid, start, START_FREE)] = True
     gi, gj = grid.cell(*goal)
     return geodesic(ok.reshape(nx, ny), [(gi, gj)], r)
 
@@ -64,7 +63,7 @@ def _in_reach(
     clear: from there the body reaches the goal with its head. (Without the way test, the map
     leaked through thin walls: a cell behind a wall next to the goal looked almost there.)"""
     centres, r = grid.centres, grid.settings.resolution
-    near = np.flatnonzero(np.hypot(centres[:, 0] - goal[0], centres[:, 1] - goal[1]) <= free)
+    near = cells_within(grid, goal, free)
     out = np.zeros(len(centres), dtype=bool)
     if near.size == 0:
         return out
@@ -74,6 +73,23 @@ def _in_reach(
     j = np.clip(((way[..., 1] - grid.bounds.ymin) / r).astype(int), 0, grid.ny - 1)
     clear = at_centres[i * grid.ny + j].min(axis=1)
     out[near] = clear >= DEFAULT_GEOMETRY.unit_radius - r * math.sqrt(0.5)
+    return out
+
+
+def cells_within(grid: LatticeGrid, point: tuple[float, float], radius: float) -> NDArray[np.intp]:
+    """The rows of ``grid.centres`` within ``radius`` of ``point``, ascending (looked for only
+    in the box of cells around it, not over the whole grid)."""
+    r, b = grid.settings.resolution, grid.bounds
+    i0 = max(0, math.floor((point[0] - radius - b.xmin) / r) - 1)
+    i1 = min(grid.nx, math.ceil((point[0] + radius - b.xmin) / r) + 1)
+    j0 = max(0, math.floor((point[1] - radius - b.ymin) / r) - 1)
+    j1 = min(grid.ny, math.ceil((point[1] + radius - b.ymin) / r) + 1)
+    if i0 >= i1 or j0 >= j1:
+        return np.zeros(0, dtype=np.intp)
+    rows = (np.arange(i0, i1)[:, None] * grid.ny + np.arange(j0, j1)[None, :]).ravel()
+    box = grid.centres[rows]
+    inside = np.hypot(box[:, 0] - point[0], box[:, 1] - point[1]) <= radius
+    out: NDArray[np.intp] = rows[inside]
     return out
 
 

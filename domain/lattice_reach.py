@@ -26,13 +26,28 @@ from domain import reach_kernel
 from domain.lattice import Key, LatticeGrid, MotionTable
 from sim.robot import Array
 
+_Rows = tuple[NDArray[np.int64], Array, NDArray[np.int64]]
+_ROWS: dict[tuple[int, float, int, float], tuple[MotionTable, _Rows]] = {}
+ROWS_KEPT = 16  # tables whose rows are kept (they depend on the table, never on the world)
 
-def body_rows(
-    grid: LatticeGrid, table: MotionTable, margin: float
-) -> tuple[NDArray[np.int64], Array, NDArray[np.int64]]:
+
+def body_rows(grid: LatticeGrid, table: MotionTable, margin: float) -> _Rows:
     """Per bin, the resting body's distinct cell offsets (``[K, U, 2]``) and the clearance each
     needs there (``[K, U]``: the largest need rounded into it + ``margin`` - half a cell
-    diagonal), and how many rows each bin uses (-1: the body reaches past any grid)."""
+    diagonal), and how many rows each bin uses (-1: the body reaches past any grid). Made once
+    per table and lattice and shared: not to be written."""
+    key = (id(table), grid.settings.resolution, grid.settings.orientations, margin)
+    got = _ROWS.get(key)
+    if got is not None and got[0] is table:
+        return got[1]
+    rows = _body_rows(grid, table, margin)
+    if len(_ROWS) >= ROWS_KEPT:
+        _ROWS.clear()
+    _ROWS[key] = (table, rows)
+    return rows
+
+
+def _body_rows(grid: LatticeGrid, table: MotionTable, margin: float) -> _Rows:
     r = grid.settings.resolution
     pad = max(1, math.ceil(table.geometry.body_length / r) + 2)
     slack = r * math.sqrt(0.5)
@@ -105,12 +120,18 @@ class Reachability:
         self.flood_budget = FLOOD_BUDGET
 
     def reaches(
-        self, start: Key, goal: tuple[float, float], reach: float, compiled: bool | None = None
+        self,
+        start: Key,
+        goal: tuple[float, float],
+        reach: float,
+        compiled: bool | None = None,
+        flood_budget: int | None = None,
     ) -> bool:
         """``False`` only when no lattice plan can bring the head within ``reach`` of ``goal``
         from ``start`` (``True`` when one may, or when no configuration at the start passes
         the test: a robot touching something). ``compiled``: force the flood fill (True) or
-        the labelling (False); by default the flood fill when kernels are available."""
+        the labelling (False); by default the flood fill when kernels are available, within
+        ``flood_budget`` configurations (default ``self.flood_budget``)."""
         starts = self._starts(start)
         if starts.size == 0:
             return True
@@ -129,7 +150,7 @@ class Reachability:
                 goal,
                 limit,
                 starts,
-                self.flood_budget,
+                self.flood_budget if flood_budget is None else flood_budget,
             )
             if found is not None:
                 return found

@@ -55,6 +55,13 @@ class Running:
     left: float
 
 
+# Configurations the reachability flood may meet when pruning a shape before it hands the
+# question to the labelling: each shape is asked once (no later question reuses its labels),
+# and an enclosed goal's pen of some 60,000 configurations is flooded in about 17 ms where
+# labelling a 10 m arena's 2.56 million takes about 44 ms.
+PRUNING_FLOOD = 100_000
+
+
 def held_joints(joints: Sequence[float]) -> tuple[float, float, float]:
     """The joint angles a body's lattice is made for: the sensed ones to 0.05 rad (the
     footprint of the real body; one motion table per rounded shape)."""
@@ -246,7 +253,10 @@ class NavigationStrategy:
             return False  # the centroid's distance map already says so (no 3-D labelling)
         reach = self.planner.reachability(table, clearance, version)
         start = self.planner.key_of(table, pose)
-        return all(reach.reaches(start, (g.x, g.y), leg_reach(g)) for g in s.goals)
+        return all(
+            reach.reaches(start, (g.x, g.y), leg_reach(g), flood_budget=PRUNING_FLOOD)
+            for g in s.goals
+        )
 
     def broken(self, situation: Situation) -> Trigger | None:
         """Re-check the next moves' swept footprints whenever the world model changed."""

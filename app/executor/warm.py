@@ -17,7 +17,7 @@ import numpy as np
 from app.executor.runner import MissionRunner
 from app.missions.spec import MissionSpec
 from domain.lattice import LatticeGrid, LatticeSettings, motion_table
-from domain.lattice_reach import Reachability
+from domain.lattice_reach import Reachability, body_rows
 from domain.lattice_search import kernel_table
 from domain.navigation_strategy import held_joints
 from primitives.library import Library
@@ -48,13 +48,14 @@ def warm_up(library: Library) -> float:
         spec = MissionSpec.model_validate(WARM_UP)
         MissionRunner(spec, library).run()
         settings = LatticeSettings(margin=spec.planner.margin)  # as missions' planners have it
+        grid = LatticeGrid(Bounds(-1.0, 1.0, -1.0, 1.0), settings)
         for shape in library.lattice_shapes():  # every shape's tables (reshaping reads them)
             made = motion_table(library, shape, held_joints(SHAPES[shape].joints), settings)
             if made is not None:
                 kernel_table(made, settings.margin)
+                body_rows(grid, made, settings.margin)
         table = motion_table(library, "straight", (0.0, 0.0, 0.0), settings)
         if table is not None:  # the reachability kernel (loaded only after a long search)
-            grid = LatticeGrid(Bounds(-1.0, 1.0, -1.0, 1.0), settings)
             reach = Reachability(grid, table, np.full(grid.nx * grid.ny, 1.0), 0.02)
             reach.reaches((grid.nx // 2, grid.ny // 2, 0), (0.5, 0.5), 0.1)
     except Exception:  # a warm-up is an optimisation, never a reason to stop

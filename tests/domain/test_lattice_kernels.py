@@ -6,6 +6,8 @@ import numpy as np
 import pytest
 
 from domain import lattice_distances, lattice_kernels
+from domain.lattice import LatticeGrid, LatticeSettings
+from sim.world import Bounds
 
 pytestmark = pytest.mark.skipif(not lattice_kernels.AVAILABLE, reason="numba kernels are off")
 
@@ -62,3 +64,22 @@ def test_motions_free_equals_the_numpy_check(seed: int, monkeypatch: pytest.Monk
         want = lattice_kernels.motions_free(clear, inverse, need, segments)
     assert got.dtype == bool and np.array_equal(got, want)
     assert 0 < want.sum() < len(want)  # some motions free, some blocked: both paths tested
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_cells_within_finds_what_a_scan_of_every_cell_finds(seed: int) -> None:
+    """The box search round a point returns exactly the cells a scan of the grid returns,
+    points off the grid and radii below a cell included."""
+    rng = np.random.default_rng(seed)
+    for _ in range(100):
+        x0, y0 = rng.uniform(-6.0, -1.0, 2)
+        x1, y1 = rng.uniform(1.0, 6.0, 2)
+        bounds = Bounds(float(x0), float(x1), float(y0), float(y1))
+        grid = LatticeGrid(
+            bounds, LatticeSettings(resolution=float(rng.choice([0.033, 0.05, 0.1])))
+        )
+        point = (float(rng.uniform(x0 - 1, x1 + 1)), float(rng.uniform(y0 - 1, y1 + 1)))
+        radius = float(rng.choice([0.0, 0.01, rng.uniform(0, 1.5)]))
+        c = grid.centres
+        want = np.flatnonzero(np.hypot(c[:, 0] - point[0], c[:, 1] - point[1]) <= radius)
+        np.testing.assert_array_equal(lattice_distances.cells_within(grid, point, radius), want)
