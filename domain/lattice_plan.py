@@ -46,6 +46,12 @@ class LatticePlan:
             return lattice_problem(self.graph, shape, reshaped_from)
         return lattice_problem(self.legs, shape, reshaped_from) if self.legs else None
 
+    def release(self) -> None:
+        """Let go of what the legs' searches kept beyond what ``problem`` reads (see
+        ``LatticeTask.release``): the plan was superseded."""
+        for task in {id(t): t for t in [*self.legs, *([self.task] if self.task else [])]}.values():
+            task.release()
+
     @property
     def solved(self) -> bool:
         return self.status == "solved"

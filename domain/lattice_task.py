@@ -68,6 +68,10 @@ def start_allowance(
     return touch_allowance(points, clearance(points) - table.body_needs[k], start_margin)
 
 
+def _released(points: Array) -> Array:
+    raise RuntimeError("this leg's search is over: its clearance was released")
+
+
 class LatticeTask(Task):  # type: ignore[misc]
     """One leg: from ``start`` to the head on ``goal`` (x, y within ``reach``)."""
 
@@ -122,6 +126,14 @@ class LatticeTask(Task):  # type: ignore[misc]
         )
 
     window: tuple[slice, slice] | None = None  # the cells successors must lie in (all: None)
+
+    def release(self) -> None:
+        """Let go of what only searching reads (the clearance and the world it reads, the
+        clearance at every cell, the motion cache, the needs per bin), keeping what ``edges``
+        and ``near`` are filled from: a finished leg kept for its PDDL problem."""
+        self.clearance = _released
+        self.at_centres, self._cache, self.reached, self.cancel = None, None, None, None
+        self._needs = {}
 
     @property
     def edges(self) -> dict[int, list[tuple[int, str]]]:

@@ -165,7 +165,13 @@ class NavigationStrategy:
             return exported.text() if exported is not None else ""
 
         return Replanned(
-            plan.solved, plan.reason, record, lattice_domain_text(), export, plan.pddl_plan
+            plan.solved,
+            plan.reason,
+            record,
+            lattice_domain_text(),
+            export,
+            plan.pddl_plan,
+            plan.release,
         )
 
     def _plan(

@@ -59,6 +59,9 @@ class Replanned:
     domain_pddl: str
     export: Callable[[], str] = field(repr=False, compare=False)  # writes the problem's text
     plan: list[str] = field(default_factory=list)
+    # Lets go of what the plan's searches kept that ``export`` does not read (the world's
+    # grids, caches): called once the plan is superseded and its problem still unwritten.
+    release: Callable[[], None] = field(default=lambda: None, repr=False, compare=False)
 
     @cached_property
     def problem_pddl(self) -> str:

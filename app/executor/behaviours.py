@@ -286,7 +286,7 @@ class Replan(MissionBehaviour):
         ctx.replans.append(out.record)
         ctx.plan_version += 1
         ctx.pddl.append(PlanVersion(ctx.plan_version, out))
-        settle(ctx.pddl, ctx.unwritten_kept)
+        settle(ctx.pddl, ctx.searches_kept)
         ctx.trigger = None
         if out.record.trigger != "initial":
             # The log keeps the record without its plans (those are the plan versions); the

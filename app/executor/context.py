@@ -11,7 +11,7 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from app.executor.plan_versions import UNWRITTEN_KEPT, PlanVersion
+from app.executor.plan_versions import SEARCHES_KEPT, PlanVersion
 from app.executor.robot import Observation, Robot
 from app.missions.spec import MissionSpec
 from domain.goal_order import LegGoal
@@ -72,7 +72,7 @@ class MissionContext:
     failure: str | None = None
     events: list[dict[str, Any]] = field(default_factory=list)
     pddl: list[PlanVersion] = field(default_factory=list)
-    unwritten_kept: int = UNWRITTEN_KEPT  # plan versions whose PDDL problem may stay unwritten
+    searches_kept: int = SEARCHES_KEPT  # newest plan versions keeping their searches whole
     contacts: int = 0
     interval: float = 0.25  # model seconds per control tick
     chain_started: float = 0.0

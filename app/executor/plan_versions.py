@@ -3,8 +3,10 @@
 Every replan makes a plan version: its domain, its problem and its plan. Writing the problem
 (every lattice state a search expanded, with all its successors) costs as much as a cheap
 replan, and a mission run from the CLI or a bench never reads most of them. So a version keeps
-the replan's export and writes the text on the first read. Until then the version keeps its
-search graph alive; ``settle`` bounds how many versions may do so at once, writing the oldest.
+the replan's export and writes the text on the first read. What the export reads is compact
+(each expanded state with its free motions as one bitmask: far smaller than the text it
+becomes); what else the searches held (the world's grids, caches) ``settle`` lets go of once a
+version is no longer among the newest few.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ from typing import Any
 
 from domain.strategy import Replanned
 
-UNWRITTEN_KEPT = 32  # plan versions whose problem may stay unwritten (each holds a search graph)
+SEARCHES_KEPT = 4  # newest plan versions whose searches keep all they held (older ones release)
 
 
 class PlanVersion(Mapping[str, Any]):
@@ -29,6 +31,7 @@ class PlanVersion(Mapping[str, Any]):
         self.plan = list(replanned.plan)
         self._replanned: Replanned | None = replanned
         self._problem: str | None = None
+        self.released = False  # what its searches held beyond the export's needs is gone
 
     @property
     def written(self) -> bool:
@@ -43,6 +46,12 @@ class PlanVersion(Mapping[str, Any]):
             self._problem = self._replanned.problem_pddl
             self._replanned = None  # the graph behind it may go
         return self._problem
+
+    def release(self) -> None:
+        """Let go of what the plan's searches held that writing its problem does not need."""
+        if not self.released and self._replanned is not None:
+            self._replanned.release()
+        self.released = True
 
     def __getitem__(self, key: str) -> Any:
         if key not in self.KEYS:
@@ -64,11 +73,11 @@ class PlanVersion(Mapping[str, Any]):
         return f"PlanVersion({self.version}, {len(self.plan)} steps, problem {state})"
 
 
-def settle(versions: Sequence[PlanVersion], kept: int = UNWRITTEN_KEPT) -> None:
-    """Write the problems of all but the newest ``kept`` unwritten versions (oldest first), so
-    at most ``kept`` search graphs stay alive for a long mission."""
-    if kept < 0:
-        raise ValueError(f"kept: at least 0 unwritten versions, got {kept}")
-    unwritten = [v for v in versions if not v.written]
-    for version in unwritten[: max(0, len(unwritten) - kept)]:
-        _ = version.problem
+def settle(versions: Sequence[PlanVersion], kept: int = SEARCHES_KEPT) -> None:
+    """Release (``PlanVersion.release``) every version but the newest ``kept``: a long
+    mission keeps what the export reads of each plan, not every search's working state."""
+    if kept < 1:
+        raise ValueError(f"kept: at least 1 plan version (the one being run), got {kept}")
+    for version in versions[: max(0, len(versions) - kept)]:
+        if not version.released:
+            version.release()

@@ -19,7 +19,7 @@ import py_trees
 from py_trees.common import Access, Status
 
 from app.executor.context import GoalState, MissionContext, MissionResult
-from app.executor.plan_versions import UNWRITTEN_KEPT
+from app.executor.plan_versions import SEARCHES_KEPT
 from app.executor.robot import Robot, sim_robot
 from app.executor.tree import build_tree, snapshot
 from app.missions.spec import MissionSpec
@@ -88,10 +88,12 @@ class MissionRunner:
         on_tick: TickHook | None = None,
         cancel: CancelFlag | None = None,
         robot: Robot | None = None,
-        unwritten_kept: int = UNWRITTEN_KEPT,
+        searches_kept: int = SEARCHES_KEPT,
     ) -> None:
-        if unwritten_kept < 0:
-            raise ValueError(f"unwritten_kept: at least 0 plan versions, got {unwritten_kept}")
+        if searches_kept < 1:
+            raise ValueError(
+                f"searches_kept: at least 1 plan version (the one being run), got {searches_kept}"
+            )
         self.spec = spec
         self.on_tick = on_tick
         self.cancel = cancel or threading.Event()
@@ -111,7 +113,7 @@ class MissionRunner:
             raise MissionError(str(exc)) from exc
         self.ctx = self._context(spec, library, self.robot)
         self.ctx.cancel = self.cancel  # the planner stops its search when it is set
-        self.ctx.unwritten_kept = unwritten_kept  # plan versions whose problem waits for a read
+        self.ctx.searches_kept = searches_kept  # newest plan versions keeping their searches whole
         self._writer = py_trees.blackboard.Client(name="runner", namespace=self.namespace)
         self._writer.register_key("context", access=Access.WRITE)
         self._writer.context = self.ctx
