@@ -39,6 +39,7 @@ class LatticePlan:
     partial: bool = False  # the search ran out of time: the plan leads towards the goal only
     graph: LatticeGraph | None = None  # the lattice a repaired plan's problem lists
     repaired: bool = False  # the last plan made free again around a local change
+    reachable: bool = False  # the reachability test found the first leg's goal reachable
 
     def problem(self, shape: str, reshaped_from: str | None = None) -> Problem | None:
         """The PDDL problem this plan solves (the lattice its searches generated), if any."""

@@ -162,13 +162,16 @@ class LatticePlanner:
         cancel: CancelFlag | None = None,
         static: tuple[Clearance, Any] | None = None,
         previous: Sequence[LatticeAction] = (),
+        reachable: bool = False,
     ) -> LatticePlan:
         """A plan from ``pose`` through ``goals`` (in the given order, or the best found).
 
         ``static`` is the clearance of the known obstacles alone: when a goal is cut off, it
         tells whether the known map already encloses it or sensing did. ``previous`` is what
         remains of the last plan: if a local repair makes it free again (domain/lattice_repair.py),
-        that is the plan; otherwise one is searched from scratch.
+        that is the plan; otherwise one is searched from scratch. ``reachable``: the first
+        leg's goal is known to be reachable from ``pose`` (the reachability test said so for a
+        clearance this one keeps at most), so that test is not asked again after a long search.
         """
         started = time.monotonic()
         deadline = started + self.time_limit
@@ -219,15 +222,18 @@ class LatticePlanner:
             result = self._search(task, maps[goal.index])
             long_search = result.status == "timeout" or result.reason == "partial"
             # After a long search, first make sure the body can get there at all.
-            if long_search and not self.reachability(table, clearance, version).reaches(
-                here, (goal.x, goal.y), task.reach
-            ):
-                plan.status, plan.actions = "unreachable", []
-                plan.reason = (
-                    f"unreachable: goal {goal.index} at ({goal.x:g}, {goal.y:g}): no "
-                    f"collision-free motion of the {table.shape} body brings its head there"
-                )
-                break
+            known = leg == 0 and reachable
+            if long_search and not known:
+                if not self.reachability(table, clearance, version).reaches(
+                    here, (goal.x, goal.y), task.reach
+                ):
+                    plan.status, plan.actions = "unreachable", []
+                    plan.reason = (
+                        f"unreachable: goal {goal.index} at ({goal.x:g}, {goal.y:g}): no "
+                        f"collision-free motion of the {table.shape} body brings its head there"
+                    )
+                    break
+                plan.reachable = plan.reachable or leg == 0
             if result.status == "timeout" and time.monotonic() < deadline:
                 # Nothing closer to go to yet: search again, longer.
                 task = self._leg(table, clearance, here, goal, leg == 0, deadline, cancel)

@@ -189,7 +189,8 @@ class NavigationStrategy:
         world = s.world
         plan = LatticePlan("unsolvable")
         goals = tuple((g.x, g.y) for g in s.goals)
-        for tier in tiers(world.any_suspected()):
+        reachable = False  # in the first tier: so in every later one, which keeps less
+        for n, tier in enumerate(tiers(world.any_suspected())):
             self.clearance = tier_clearance(world, tier, goals)
             plan = self.planner.plan(
                 table,
@@ -201,7 +202,9 @@ class NavigationStrategy:
                 cancel,
                 static=(world.static_clearance_at, world.static_version),
                 previous=remaining,
+                reachable=reachable,
             )
+            reachable = reachable or (n == 0 and plan.reachable)
             if plan.status not in ("unreachable", "unsolvable"):
                 break  # a timeout turns to sense around instead (see ``replan``)
         return plan

@@ -14,7 +14,7 @@ from domain.lattice import LatticeSettings, compose, motion_table
 from domain.lattice_pddl import lattice_domain, lattice_problem
 from domain.lattice_planner import LatticePlanner
 from domain.lattice_task import LatticeTask
-from domain.pyperplan_adapter import parse_and_ground, search_task, validate_plan
+from domain.pyperplan_adapter import PlanResult, parse_and_ground, search_task, validate_plan
 from domain.worldmodel import WorldModel
 from primitives.library import load_bundled
 from sim.obstacles import Circle, rectangle
@@ -244,3 +244,33 @@ def test_the_distance_map_does_not_leak_through_a_thin_wall_beside_the_goal() ->
     beside = dist[p.grid.cell(1.9, -0.5)]
     assert beside < 0.3
     assert behind > 1.5  # round the wall's end, 1.25 m away, and back
+
+
+def test_a_goal_known_reachable_is_not_tested_again_after_a_long_search(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """After a long search the planner asks whether the body can get there at all; a tier
+    that keeps less clearance than one where it could is not asked again (``reachable``)."""
+    bounds = Bounds(-2, 2, -2, 2)
+    world = WorldModel(bounds, [Circle(0.0, 0.0, 0.3)])
+    legs = [LegGoal(0, 1.4, 1.4, 0.1)]
+    asked: list[bool] = []
+
+    def long_search(task, distances):  # every search runs out of expansions
+        return PlanResult("timeout", [], 1.0, task.budget, "search timeout")
+
+    for known in (False, True):
+        p = planner(bounds)
+        monkeypatch.setattr(p, "_search", long_search)
+
+        def counted(*args, real=p.reachability, known=known):
+            asked.append(known)
+            return real(*args)
+
+        monkeypatch.setattr(p, "reachability", counted)
+        assert STRAIGHT is not None
+        got = p.plan(
+            STRAIGHT, world.clearance_at, 0, (-1.4, -1.4, 0.0), legs, True, reachable=known
+        )
+        assert got.status == "timeout" and got.reachable == (not known)
+    assert asked == [False]  # asked, found it reachable; then taken as known
