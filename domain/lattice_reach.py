@@ -15,6 +15,7 @@ start's component cannot be reached by any plan; the converse need not hold.
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
@@ -26,12 +27,20 @@ from domain import reach_kernel
 from domain.lattice import Key, LatticeGrid, MotionTable
 from sim.robot import Array
 
-_Rows = tuple[NDArray[np.int64], Array, NDArray[np.int64]]
-_ROWS: dict[tuple[int, float, int, float], tuple[MotionTable, _Rows]] = {}
+
+class BodyRows(NamedTuple):
+    """The resting body per orientation bin, as the reachability kernels read it."""
+
+    shifts: NDArray[np.int64]  # [K, U, 2] distinct cell offsets of the body's points
+    thresholds: Array  # [K, U] the clearance each needs there
+    counts: NDArray[np.int64]  # [K] rows used per bin (-1: the body reaches past any grid)
+
+
+_ROWS: dict[tuple[int, float, int, float], tuple[MotionTable, BodyRows]] = {}
 ROWS_KEPT = 16  # tables whose rows are kept (they depend on the table, never on the world)
 
 
-def body_rows(grid: LatticeGrid, table: MotionTable, margin: float) -> _Rows:
+def body_rows(grid: LatticeGrid, table: MotionTable, margin: float) -> BodyRows:
     """Per bin, the resting body's distinct cell offsets (``[K, U, 2]``) and the clearance each
     needs there (``[K, U]``: the largest need rounded into it + ``margin`` - half a cell
     diagonal), and how many rows each bin uses (-1: the body reaches past any grid). Made once
@@ -47,7 +56,7 @@ def body_rows(grid: LatticeGrid, table: MotionTable, margin: float) -> _Rows:
     return rows
 
 
-def _body_rows(grid: LatticeGrid, table: MotionTable, margin: float) -> _Rows:
+def _body_rows(grid: LatticeGrid, table: MotionTable, margin: float) -> BodyRows:
     r = grid.settings.resolution
     pad = max(1, math.ceil(table.geometry.body_length / r) + 2)
     slack = r * math.sqrt(0.5)
@@ -67,7 +76,7 @@ def _body_rows(grid: LatticeGrid, table: MotionTable, margin: float) -> _Rows:
     for k, (unique, need) in enumerate(rows):
         shifts_out[k, : len(unique)], thresholds[k, : len(unique)] = unique, need
         counts[k] = -1 if np.any(np.abs(unique) >= pad) else len(unique)
-    return shifts_out, thresholds, counts
+    return BodyRows(shifts_out, thresholds, counts)
 
 
 def free_configurations(
@@ -75,7 +84,7 @@ def free_configurations(
     table: MotionTable,
     at_centres: Array,
     margin: float,
-    rows: tuple[NDArray[np.int64], Array, NDArray[np.int64]] | None = None,
+    rows: BodyRows | None = None,
 ) -> NDArray[np.bool_]:
     """``[K, nx, ny]``: where the resting body may lie (relaxed by half a cell diagonal), from
     the clearance at ``grid.centres`` (``rows``: ``body_rows`` of the same, if made already)."""
@@ -113,7 +122,7 @@ class Reachability:
         self.grid, self.table, self.margin = grid, table, margin
         self.at_centres = at_centres
         self.clear = np.ascontiguousarray(at_centres.reshape(grid.nx, grid.ny), dtype=float)
-        self.shifts, self.thresholds, self.counts = body_rows(grid, table, margin)
+        self.rows = body_rows(grid, table, margin)
         self._labels: tuple[NDArray[np.bool_], NDArray[np.int32], NDArray[np.int32]] | None = None
         # Configurations the flood may meet before it leaves the question to the labelling
         # (two large components: a flood costs more per configuration than the labelling).
@@ -141,9 +150,7 @@ class Reachability:
             centres = grid.centres.reshape(grid.nx, grid.ny, 2)
             found = reach_kernel.flood_reaches(
                 self.clear,
-                self.shifts,
-                self.thresholds,
-                self.counts,
+                *self.rows,
                 np.asarray(self.table.heads, dtype=float),
                 np.ascontiguousarray(centres[:, 0, 0]),
                 np.ascontiguousarray(centres[0, :, 1]),
@@ -179,8 +186,9 @@ class Reachability:
     def _labelled(self) -> tuple[NDArray[np.bool_], NDArray[np.int32], NDArray[np.int32]]:
         """Every free configuration's component (built on the first question)."""
         if self._labels is None:
-            rows = (self.shifts, self.thresholds, self.counts)
-            free = free_configurations(self.grid, self.table, self.at_centres, self.margin, rows)
+            free = free_configurations(
+                self.grid, self.table, self.at_centres, self.margin, self.rows
+            )
             structure = np.zeros((3, 3, 3), dtype=bool)
             structure[1] = True  # the 8 neighbouring cells at one orientation ...
             structure[0, 1, 1] = structure[2, 1, 1] = True  # ... and one orientation step in place
@@ -216,6 +224,4 @@ class Reachability:
         return np.asarray(found, dtype=np.int64)
 
     def _free(self, k: int, i: int, j: int) -> bool:
-        return reach_kernel.configuration_free(
-            self.clear, self.shifts, self.thresholds, self.counts, k, i, j
-        )
+        return reach_kernel.configuration_free(self.clear, *self.rows, k, i, j)
