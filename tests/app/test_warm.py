@@ -1,7 +1,9 @@
 """A worker's warm-up: a real short mission (sensing, a replan, a deformation), and never a
 reason for a worker to stop."""
 
+import gc
 import logging
+from collections.abc import Iterator
 
 import pytest
 
@@ -14,6 +16,13 @@ from domain.navigation_strategy import NavigationStrategy, held_joints
 from primitives.library import load_bundled
 from primitives.shapes import SHAPES
 from sim.world import Bounds
+
+
+@pytest.fixture(autouse=True)
+def unfreeze() -> Iterator[None]:
+    """The warm-up freezes what a worker holds; the test process goes on collecting."""
+    yield
+    gc.unfreeze()
 
 
 def test_the_warm_up_mission_senses_replans_and_arrives() -> None:
@@ -51,3 +60,11 @@ def test_after_the_warm_up_every_shape_s_table_is_at_hand(
         planner = LatticePlanner(Bounds(-1.0, 1.0, -1.0, 1.0), settings)
         NavigationStrategy(library, planner).table_for(shape, joints)
         assert len(lattice._TABLES) == before  # the strategy finds it: no new table
+
+
+def test_after_the_warm_up_what_the_process_holds_is_out_of_the_collector_s_way() -> None:
+    """A full collection inside a mission would rescan the library, kernels and tables: the
+    warm-up freezes them (``gc.freeze``), so a mission's full passes scan its own objects."""
+    warm.warm_up(load_bundled())
+    assert gc.get_freeze_count() > 10_000
+    assert len(gc.get_objects()) < gc.get_freeze_count()
