@@ -10,6 +10,7 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -81,8 +82,33 @@ class Interpolated:
         return ParameterSpace("U2").control(self.params)
 
 
+_CORNERS: dict[tuple[Any, ...], tuple[int, int, int]] = {}  # by the entries' goals
+CORNERS_KEPT = 256
+
+
 def corners_of(entries: Sequence[Primitive]) -> tuple[Primitive, Primitive, Primitive]:
-    """Sort three primitives into (x-axis, y-axis, diagonal) by their goals."""
+    """Sort three primitives into (x-axis, y-axis, diagonal) by their goals (remembered per
+    three entries: a reactive move re-aims every tick)."""
+    key = tuple((tuple(e.goal), e.periodic) for e in entries)  # all the sorting reads
+    known = _CORNERS.get(key)
+    if known is not None:
+        return entries[known[0]], entries[known[1]], entries[known[2]]
+    corners = _corners(entries)
+    if len(_CORNERS) >= CORNERS_KEPT:
+        _CORNERS.clear()
+    _CORNERS[key] = (
+        _index(entries, corners[0]),
+        _index(entries, corners[1]),
+        _index(entries, corners[2]),
+    )
+    return corners
+
+
+def _index(entries: Sequence[Primitive], entry: Primitive) -> int:
+    return next(i for i, e in enumerate(entries) if e is entry)
+
+
+def _corners(entries: Sequence[Primitive]) -> tuple[Primitive, Primitive, Primitive]:
     if len(entries) != 3:
         raise ValueError("from: bilinear interpolation takes exactly three primitives")
     if any(e.periodic for e in entries):
