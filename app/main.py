@@ -30,6 +30,7 @@ from app.api.deps import Services
 from app.api.limits import RequestGuard
 from app.api.server_timing import ServerTiming
 from app.service.hub import Hub
+from app.service.intake import Intake
 from app.service.jobs import Jobs
 from app.service.metrics import Metrics
 from app.service.supervisor import Supervisor
@@ -62,7 +63,16 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         to_thread.current_default_thread_limiter().total_tokens = config.api_threads
         snapshots = CapacityLimiter(config.ws_snapshot_threads)
         app.state.services = Services(
-            config, store, library, hub, supervisor, learning, metrics, version[:12], snapshots
+            config,
+            store,
+            library,
+            hub,
+            supervisor,
+            learning,
+            metrics,
+            version[:12],
+            snapshots,
+            Intake(store, supervisor, metrics, config.post_batch),
         )
         await supervisor.start()
         try:

@@ -55,6 +55,8 @@ class Settings(BaseModel):
     # Threads serving requests' blocking work (store reads and writes) at once; past a few,
     # threads only queue for the GIL and slow the event loop (FastAPI's default is 40).
     api_threads: int = Field(8, ge=1, le=1000)
+    # Missions posted at once that are stored in one transaction (more wait for the next).
+    post_batch: int = Field(50, ge=1, le=10_000)
     # Websocket snapshots (store reads) built at once: a burst of clients connecting waits its
     # turn instead of taking every thread from the API's requests.
     ws_snapshot_threads: int = Field(2, ge=1, le=256)

@@ -12,6 +12,7 @@ from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from app.api.errors import ApiError
 from app.service.hub import Hub
+from app.service.intake import Intake
 from app.service.jobs import Jobs
 from app.service.metrics import Metrics
 from app.service.supervisor import Supervisor
@@ -31,6 +32,7 @@ class Services:
     metrics: Metrics
     library_version: str
     snapshots: CapacityLimiter  # bounds the websocket snapshots built at once
+    intake: Intake  # stores and queues posted missions, in batches
 
 
 # The dependencies are ``async``: FastAPI runs a plain ``def`` dependency in its thread pool,

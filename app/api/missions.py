@@ -124,39 +124,23 @@ async def create_mission(
         raise QueueFull()
     request = spec.model_dump(mode="json", by_alias=True)
     timing.lap("validate")
-    # Async, with one hop to a thread for all the store's work: as a plain ``def`` route,
-    # FastAPI would use a thread for the route and another for its answer's validation, each
-    # a wait for a free thread and the GIL when a burst of requests comes in.
-    mission, created = await run_in_threadpool(
-        store_and_queue, svc, spec.name, request, idempotency_key
-    )
-    timing.lap("back")  # the event loop took the answer back from the thread
-    response.status_code = 201 if created else 200
-    response.headers["Location"] = f"/missions/{mission.id}"
-    return mission
-
-
-def store_and_queue(
-    svc: Services, name: str, request: dict[str, Any], idempotency_key: str | None
-) -> tuple[MissionOut, bool]:
-    """Store a new mission and queue it; (the mission, whether it is new). A retried key with
-    the same request returns the mission it created, with another request it is a 409."""
-    timing.lap("hop")  # waiting for a free thread (and the GIL)
-    row, created = svc.store.create_mission(name, request, idempotency_key)
-    if created:
-        svc.metrics.created.inc()
-        with timing.span("queue"):
-            svc.supervisor.submit(row.id, force=True)
-    elif row.request != request:
+    # Stored and queued with the other missions posted meanwhile (app.service.intake): one
+    # thread hop and one transaction for a burst, not one each.
+    row, created = await svc.intake.create(spec.name, request, idempotency_key)
+    timing.lap("store")  # its batch: waiting for it, the thread hop, the transaction
+    if created:  # its one transition is known: nothing to read back
+        queued = [TransitionOut(status=MissionStatus.QUEUED, at=row.created_at, reason="")]
+        mission = resource(svc, row, queued)
+    elif row.request == request:  # a retry: the mission as it is now
+        mission = await run_in_threadpool(resource, svc, row)
+    else:
         raise ApiError(
             409, f"Idempotency-Key was used for a different mission ({row.id})", "Idempotency-Key"
         )
-    # A new mission's one transition is known: no read for it.
-    queued = [TransitionOut(status=MissionStatus.QUEUED, at=row.created_at, reason="")]
-    with timing.span("resource"):
-        mission = resource(svc, row, queued if created else None)
-    timing.lap("store")  # lock, write, queue and resource together
-    return mission, created
+    response.status_code = 201 if created else 200
+    response.headers["Location"] = f"/missions/{row.id}"
+    timing.lap("resource")
+    return mission
 
 
 @router.get("/missions", response_model=MissionPage, responses=responses(422))

@@ -46,6 +46,9 @@ class StoredPlan:
     actions: list[dict[str, Any]]
 
 
+NewMission = tuple[str, dict[str, Any], str | None]  # name, request, idempotency key
+
+
 def now() -> datetime:
     return datetime.now(UTC)
 
@@ -73,37 +76,54 @@ class Store:
         self, name: str, request: dict[str, Any], idempotency_key: str | None
     ) -> tuple[MissionRow, bool]:
         """Insert a queued mission (and its first transition); ``(row, False)`` for a retried key."""
+        return self.create_missions([(name, request, idempotency_key)])[0]
+
+    def create_missions(self, items: Sequence[NewMission]) -> list[tuple[MissionRow, bool]]:
+        """Insert queued missions in one transaction, each ``(name, request, idempotency key)``;
+        per item ``(row, created)``: a key already used (before, or earlier in ``items``)
+        gives the mission it created and False."""
+        try:
+            return self._insert_missions(items)
+        except IntegrityError:  # a key taken meanwhile by another writer (another process)
+            if len(items) > 1:  # one at a time: only the item that raced is a replay
+                return [self.create_missions([item])[0] for item in items]
+            key = items[0][2]
+            with self.sessions() as s:
+                found = s.scalar(select(MissionRow).where(MissionRow.idempotency_key == key))
+            assert found is not None
+            return [(found, False)]
+
+    def _insert_missions(self, items: Sequence[NewMission]) -> list[tuple[MissionRow, bool]]:
         with self._writing(), self.sessions() as s:
-            if idempotency_key:
-                found = s.scalar(
-                    select(MissionRow).where(MissionRow.idempotency_key == idempotency_key)
-                )
-                if found is not None:
-                    return found, False
+            keys = [key for _, _, key in items if key]
+            seen: dict[str, MissionRow] = {}
+            if keys:
+                query = select(MissionRow).where(MissionRow.idempotency_key.in_(keys))
+                seen = {row.idempotency_key or "": row for row in s.scalars(query)}
+            out: list[tuple[MissionRow, bool]] = []
             t = now()
-            row = MissionRow(
-                id=str(uuid.uuid4()),
-                name=name,
-                status="queued",
-                reason="",
-                created_at=t,
-                updated_at=t,
-                idempotency_key=idempotency_key,
-                request=request,
-                state={},
-            )
-            s.add(row)
-            s.add(TransitionRow(mission_id=row.id, status="queued", at=t, reason=""))
-            try:
-                s.commit()
-            except IntegrityError:  # a concurrent retry with the same key won the race
-                s.rollback()
-                found = s.scalar(
-                    select(MissionRow).where(MissionRow.idempotency_key == idempotency_key)
+            for name, request, key in items:
+                if key and key in seen:
+                    out.append((seen[key], False))
+                    continue
+                row = MissionRow(
+                    id=str(uuid.uuid4()),
+                    name=name,
+                    status="queued",
+                    reason="",
+                    created_at=t,
+                    updated_at=t,
+                    idempotency_key=key,
+                    request=request,
+                    state={},
                 )
-                assert found is not None
-                return found, False
-            return row, True
+                s.add(row)
+                s.add(TransitionRow(mission_id=row.id, status="queued", at=t, reason=""))
+                if key:
+                    seen[key] = row
+                out.append((row, True))
+            s.commit()
+            return out
 
     def get_mission(self, mission_id: str) -> MissionRow | None:
         with self.sessions() as s:
