@@ -146,12 +146,12 @@ def test_blobs_are_compressed_before_the_lock_and_read_back(database_url: str) -
             locked.set()
         return original(raw)
 
-    blobs.pack = pack  # type: ignore[assignment]
+    blobs.pack = pack
     try:
         store.add_plan(row.id, 1, "navigation", "(define (domain d))", problem, ["a"], [{"a": 1}])
         store.save_trajectory(row.id, [[0.0, 1.0, 2.0]] * 500)
     finally:
-        blobs.pack = original  # type: ignore[assignment]
+        blobs.pack = original
     assert not locked.is_set()  # never compressed under the store's write lock
     plan = store.plans(row.id)[-1]
     assert plan.problem_pddl == problem and plan.actions == [{"a": 1}]
