@@ -6,6 +6,7 @@ from __future__ import annotations
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
 
+from anyio import CapacityLimiter, to_thread
 from fastapi import FastAPI
 from fastapi.middleware.cors import CORSMiddleware
 from fastapi_offline import FastAPIOffline
@@ -27,7 +28,9 @@ from app.api import (
 )
 from app.api.deps import Services
 from app.api.limits import RequestGuard
+from app.api.server_timing import ServerTiming
 from app.service.hub import Hub
+from app.service.intake import Intake
 from app.service.jobs import Jobs
 from app.service.metrics import Metrics
 from app.service.supervisor import Supervisor
@@ -55,8 +58,21 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         hub = Hub(config.ws_queue)
         supervisor = Supervisor(store, library, hub, config, metrics)
         learning = Jobs(store, metrics)
+        # FastAPI's thread pool (sync routes and dependencies, run_in_threadpool) is anyio's
+        # default limiter, per event loop: sized here, once the loop runs.
+        to_thread.current_default_thread_limiter().total_tokens = config.api_threads
+        snapshots = CapacityLimiter(config.ws_snapshot_threads)
         app.state.services = Services(
-            config, store, library, hub, supervisor, learning, metrics, version[:12]
+            config,
+            store,
+            library,
+            hub,
+            supervisor,
+            learning,
+            metrics,
+            version[:12],
+            snapshots,
+            Intake(store, supervisor, metrics, config.post_batch),
         )
         await supervisor.start()
         try:
@@ -91,6 +107,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             allow_headers=["Authorization", "Content-Type", "Idempotency-Key"],
             expose_headers=["Location", "Retry-After"],
         )
+    if config.server_timing:  # outermost: its total covers the guard and CORS too
+        app.add_middleware(ServerTiming)
     for module in (
         missions,
         updates,

@@ -50,6 +50,16 @@ class Settings(BaseModel):
     min_speed: float = Field(0.01, gt=0, le=10_000)  # slowest real-time pacing (0 = unpaced)
     reconcile_seconds: float = Field(30.0, gt=0, le=86400)  # how often lost missions are ended
     ws_rate: float = Field(10.0, gt=0, le=200)  # state frames per second and client
+    # A Server-Timing header on every HTTP answer: where the request's time went (off: none).
+    server_timing: bool = True
+    # Threads serving requests' blocking work (store reads and writes) at once; past a few,
+    # threads only queue for the GIL and slow the event loop (FastAPI's default is 40).
+    api_threads: int = Field(8, ge=1, le=1000)
+    # Missions posted at once that are stored in one transaction (more wait for the next).
+    post_batch: int = Field(50, ge=1, le=10_000)
+    # Websocket snapshots (store reads) built at once: a burst of clients connecting waits its
+    # turn instead of taking every thread from the API's requests.
+    ws_snapshot_threads: int = Field(2, ge=1, le=256)
     ws_queue: int = Field(
         256, ge=8, le=100_000
     )  # undeliverable event frames before a client is dropped

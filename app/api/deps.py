@@ -6,11 +6,13 @@ import secrets
 from dataclasses import dataclass
 from typing import Annotated
 
+from anyio import CapacityLimiter
 from fastapi import Depends, Path, Request
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from app.api.errors import ApiError
 from app.service.hub import Hub
+from app.service.intake import Intake
 from app.service.jobs import Jobs
 from app.service.metrics import Metrics
 from app.service.supervisor import Supervisor
@@ -29,9 +31,13 @@ class Services:
     jobs: Jobs
     metrics: Metrics
     library_version: str
+    snapshots: CapacityLimiter  # bounds the websocket snapshots built at once
+    intake: Intake  # stores and queues posted missions, in batches
 
 
-def services(request: Request) -> Services:
+# The dependencies are ``async``: FastAPI runs a plain ``def`` dependency in its thread pool,
+# a hop (and a wait for a thread and the GIL) per dependency per request for no I/O at all.
+async def services(request: Request) -> Services:
     found: Services = request.app.state.services
     return found
 
@@ -42,7 +48,7 @@ JobId = Annotated[str, Path(description="the job's id (a UUID)")]
 bearer = HTTPBearer(auto_error=False)
 
 
-def writer(
+async def writer(
     svc: Svc, credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(bearer)]
 ) -> None:
     """Writes need ``Authorization: Bearer <key>`` when an API key is set."""

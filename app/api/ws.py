@@ -7,6 +7,7 @@ import contextlib
 import json
 from typing import Any
 
+from anyio import to_thread
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
 from starlette.websockets import WebSocketState
 
@@ -14,6 +15,7 @@ from app.api.deps import Services
 from app.api.missions import plan_of, resource
 from app.missions.status import TERMINAL
 from app.service.frames import EndFrame
+from app.store.models import MissionRow
 
 router = APIRouter(tags=["websocket"])
 MAX_CLIENT_MESSAGE = 4096  # bytes: clients only ever send small control messages
@@ -47,11 +49,23 @@ async def _receive(ws: WebSocket, closed: asyncio.Event) -> None:
         closed.set()
 
 
+def snapshot(svc: Services, row: MissionRow) -> dict[str, Any]:
+    """The first frame: the mission and its plan as the store has them now."""
+    return {
+        "type": "snapshot",
+        "mission": resource(svc, row).model_dump(mode="json"),
+        "plan": plan_of(svc, row.id).model_dump(mode="json"),
+    }
+
+
 @router.websocket("/missions/{mission_id}/ws")
 async def mission_socket(ws: WebSocket, mission_id: str) -> None:
     svc: Services = ws.app.state.services
     await ws.accept()
-    row = svc.store.get_mission(mission_id)
+    # The store is read in a thread (a few at once: ``ws_snapshot_threads``): a burst of
+    # clients connecting must neither stall the event loop for their database reads nor take
+    # every thread from the API's requests.
+    row = await to_thread.run_sync(svc.store.get_mission, mission_id, limiter=svc.snapshots)
     if row is None:
         await ws.send_json(
             {"type": "error", "status": 404, "detail": f"mission {mission_id} not found"}
@@ -62,12 +76,7 @@ async def mission_socket(ws: WebSocket, mission_id: str) -> None:
     closed = asyncio.Event()
     reader = asyncio.create_task(_receive(ws, closed))
     try:
-        snapshot: dict[str, Any] = {
-            "type": "snapshot",
-            "mission": resource(svc, row).model_dump(mode="json"),
-            "plan": plan_of(svc, mission_id).model_dump(mode="json"),
-        }
-        await ws.send_json(snapshot)
+        await ws.send_json(await to_thread.run_sync(snapshot, svc, row, limiter=svc.snapshots))
         if row.status in TERMINAL:
             await ws.send_json({"type": "end", "status": row.status, "reason": row.reason})
             return

@@ -9,7 +9,8 @@ from __future__ import annotations
 import hashlib
 import threading
 import uuid
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any
@@ -18,6 +19,7 @@ from sqlalchemy import Engine, delete, func, select, union, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import sessionmaker
 
+from app import timing
 from app.missions.status import ACTIVE, TERMINAL
 from app.store import blobs
 from app.store.models import (
@@ -44,6 +46,9 @@ class StoredPlan:
     actions: list[dict[str, Any]]
 
 
+NewMission = tuple[str, dict[str, Any], str | None]  # name, request, idempotency key
+
+
 def now() -> datetime:
     return datetime.now(UTC)
 
@@ -54,42 +59,71 @@ class Store:
         self.sessions = sessionmaker(engine, expire_on_commit=False)
         self.lock = threading.RLock()
 
+    @contextmanager
+    def _writing(self) -> Iterator[None]:
+        """The write lock, held for the block; the wait for it (``lock``) and the block
+        (``write``) are spans of the request being served, if any."""
+        with timing.span("lock"):
+            self.lock.acquire()
+        try:
+            with timing.span("write"):
+                yield
+        finally:
+            self.lock.release()
+
     # -- missions ---------------------------------------------------------------------------
     def create_mission(
         self, name: str, request: dict[str, Any], idempotency_key: str | None
     ) -> tuple[MissionRow, bool]:
         """Insert a queued mission (and its first transition); ``(row, False)`` for a retried key."""
-        with self.lock, self.sessions() as s:
-            if idempotency_key:
-                found = s.scalar(
-                    select(MissionRow).where(MissionRow.idempotency_key == idempotency_key)
-                )
-                if found is not None:
-                    return found, False
+        return self.create_missions([(name, request, idempotency_key)])[0]
+
+    def create_missions(self, items: Sequence[NewMission]) -> list[tuple[MissionRow, bool]]:
+        """Insert queued missions in one transaction, each ``(name, request, idempotency key)``;
+        per item ``(row, created)``: a key already used (before, or earlier in ``items``)
+        gives the mission it created and False."""
+        try:
+            return self._insert_missions(items)
+        except IntegrityError:  # a key taken meanwhile by another writer (another process)
+            if len(items) > 1:  # one at a time: only the item that raced is a replay
+                return [self.create_missions([item])[0] for item in items]
+            key = items[0][2]
+            with self.sessions() as s:
+                found = s.scalar(select(MissionRow).where(MissionRow.idempotency_key == key))
+            assert found is not None
+            return [(found, False)]
+
+    def _insert_missions(self, items: Sequence[NewMission]) -> list[tuple[MissionRow, bool]]:
+        with self._writing(), self.sessions() as s:
+            keys = [key for _, _, key in items if key]
+            seen: dict[str, MissionRow] = {}
+            if keys:
+                query = select(MissionRow).where(MissionRow.idempotency_key.in_(keys))
+                seen = {row.idempotency_key or "": row for row in s.scalars(query)}
+            out: list[tuple[MissionRow, bool]] = []
             t = now()
-            row = MissionRow(
-                id=str(uuid.uuid4()),
-                name=name,
-                status="queued",
-                reason="",
-                created_at=t,
-                updated_at=t,
-                idempotency_key=idempotency_key,
-                request=request,
-                state={},
-            )
-            s.add(row)
-            s.add(TransitionRow(mission_id=row.id, status="queued", at=t, reason=""))
-            try:
-                s.commit()
-            except IntegrityError:  # a concurrent retry with the same key won the race
-                s.rollback()
-                found = s.scalar(
-                    select(MissionRow).where(MissionRow.idempotency_key == idempotency_key)
+            for name, request, key in items:
+                if key and key in seen:
+                    out.append((seen[key], False))
+                    continue
+                row = MissionRow(
+                    id=str(uuid.uuid4()),
+                    name=name,
+                    status="queued",
+                    reason="",
+                    created_at=t,
+                    updated_at=t,
+                    idempotency_key=key,
+                    request=request,
+                    state={},
                 )
-                assert found is not None
-                return found, False
-            return row, True
+                s.add(row)
+                s.add(TransitionRow(mission_id=row.id, status="queued", at=t, reason=""))
+                if key:
+                    seen[key] = row
+                out.append((row, True))
+            s.commit()
+            return out
 
     def get_mission(self, mission_id: str) -> MissionRow | None:
         with self.sessions() as s:
@@ -126,7 +160,7 @@ class Store:
         self, mission_id: str, status: str, reason: str = "", state: dict[str, Any] | None = None
     ) -> bool:
         """Append a transition and set the status, unless the mission already ended."""
-        with self.lock, self.sessions() as s:
+        with self._writing(), self.sessions() as s:
             row = s.get(MissionRow, mission_id)
             if row is None or row.status in TERMINAL:
                 return False
@@ -139,7 +173,7 @@ class Store:
             return True
 
     def save_state(self, mission_id: str, state: dict[str, Any]) -> None:
-        with self.lock, self.sessions() as s:
+        with self._writing(), self.sessions() as s:
             s.execute(
                 update(MissionRow)
                 .where(MissionRow.id == mission_id)
@@ -149,7 +183,7 @@ class Store:
 
     def interrupt_unfinished(self) -> list[str]:
         """At start-up: missions left active by a crash become failed/interrupted."""
-        with self.lock, self.sessions() as s:
+        with self._writing(), self.sessions() as s:
             rows = list(s.scalars(select(MissionRow).where(MissionRow.status.in_(sorted(ACTIVE)))))
             t = now()
             for row in rows:
@@ -183,7 +217,14 @@ class Store:
         actions: Sequence[dict[str, Any]],
     ) -> None:
         """A plan version; its PDDL and actions go to blobs (the domain text is stored once)."""
-        with self.lock, self.sessions() as s:
+        with self.sessions() as s:  # compressed before the write lock, not under it
+            texts = (
+                blobs.prepare(s, domain_pddl),
+                blobs.prepare(s, problem_pddl),
+                blobs.prepare_json(s, {"plan": list(plan), "actions": list(actions)}),
+            )
+        with self._writing(), self.sessions() as s:
+            domain_ref, problem_ref, steps_ref = (blobs.put(s, b) for b in texts)
             s.add(
                 PlanRow(
                     mission_id=mission_id,
@@ -193,9 +234,9 @@ class Store:
                     problem_pddl="",
                     plan=[],
                     actions=[],
-                    domain_ref=blobs.put_text(s, domain_pddl),
-                    problem_ref=blobs.put_text(s, problem_pddl),
-                    steps_ref=blobs.put_json(s, {"plan": list(plan), "actions": list(actions)}),
+                    domain_ref=domain_ref,
+                    problem_ref=problem_ref,
+                    steps_ref=steps_ref,
                 )
             )
             s.commit()
@@ -228,7 +269,9 @@ class Store:
             return out
 
     def add_replan(self, mission_id: str, record: dict[str, Any]) -> None:
-        with self.lock, self.sessions() as s:
+        with self.sessions() as s:
+            plans = blobs.prepare_json(s, {"old": record["old"], "new": record["new"]})
+        with self._writing(), self.sessions() as s:
             s.add(
                 ReplanRow(
                     mission_id=mission_id,
@@ -239,7 +282,7 @@ class Store:
                     old=[],
                     new=[],
                     status=record["status"],
-                    plans_ref=blobs.put_json(s, {"old": record["old"], "new": record["new"]}),
+                    plans_ref=blobs.put(s, plans),
                 )
             )
             s.commit()
@@ -258,8 +301,10 @@ class Store:
             return rows
 
     def save_trajectory(self, mission_id: str, points: list[list[float]]) -> None:
-        with self.lock, self.sessions() as s:
-            ref = blobs.put_json(s, points)
+        with self.sessions() as s:
+            blob = blobs.prepare_json(s, points)
+        with self._writing(), self.sessions() as s:
+            ref = blobs.put(s, blob)
             s.merge(TrajectoryRow(mission_id=mission_id, points=[], points_ref=ref))
             s.commit()
 
@@ -276,7 +321,7 @@ class Store:
     def prune(self, before: datetime) -> int:
         """Delete missions that ended before ``before`` (with everything of theirs) and the
         blobs nothing refers to any more; returns how many missions went."""
-        with self.lock, self.sessions() as s:
+        with self._writing(), self.sessions() as s:
             ids = list(
                 s.scalars(
                     select(MissionRow.id).where(
@@ -303,7 +348,7 @@ class Store:
     # -- library versions and jobs ---------------------------------------------------------------
     def record_library(self, text: str, code_version: str, entries: int, source: str) -> str:
         digest = hashlib.sha256(text.encode()).hexdigest()
-        with self.lock, self.sessions() as s:
+        with self._writing(), self.sessions() as s:
             if (
                 s.scalar(select(LibraryVersionRow).where(LibraryVersionRow.sha256 == digest))
                 is None
@@ -321,7 +366,7 @@ class Store:
         return digest
 
     def create_job(self, kind: str, request: dict[str, Any]) -> JobRow:
-        with self.lock, self.sessions() as s:
+        with self._writing(), self.sessions() as s:
             row = JobRow(
                 id=str(uuid.uuid4()),
                 kind=kind,
@@ -337,7 +382,7 @@ class Store:
             return row
 
     def update_job(self, job_id: str, **values: Any) -> None:
-        with self.lock, self.sessions() as s:
+        with self._writing(), self.sessions() as s:
             s.execute(update(JobRow).where(JobRow.id == job_id).values(**values))
             s.commit()
 
@@ -346,7 +391,7 @@ class Store:
             return s.get(JobRow, job_id)
 
     def interrupt_jobs(self) -> None:
-        with self.lock, self.sessions() as s:
+        with self._writing(), self.sessions() as s:
             s.execute(
                 update(JobRow)
                 .where(JobRow.status.in_(("queued", "running")))
