@@ -297,7 +297,10 @@ def report(executor: str, n: int, r: dict[str, Any]) -> None:
     post_p99 = float(np.percentile(every, 99))
     verdict = "ok" if max(r["get_p99"], post_p99) <= 100 and r["ended"] == n else "MISSED"
     size = r["pool"] or f"{cores()} (the cores)"
-    print(f"\nexecutor={executor}, pool of {size}: server ready in {r['ready']:.1f} s (pool warm)")
+    print(
+        f"\nexecutor={executor}, pool of {size}: server ready in {r['ready']:.1f} s"
+        " (its workers may still be warming up: the burst follows at once)"
+    )
     burst = [p.ms for p in posts if p.kind == "burst"]
     print(
         f"  {n} missions posted at once: POST p50 {np.median(burst):.0f} ms,"
