@@ -128,13 +128,16 @@ class LatticePlanner:
         version: Any,
         pose: Sequence[float],
         goals: Sequence[LegGoal],
+        cancel: CancelFlag | None = None,
     ) -> bool:
         """Whether some goal's distance map has no way to the start's cell: what ``plan``
-        answers ``unreachable`` to before any search (the maps are kept for it)."""
+        answers ``unreachable`` to before any search (the maps are kept for it). ``True``
+        once ``cancel`` is set (a cancelled mission has no use for more maps)."""
         si, sj, _ = self.key_of(table, pose)
         here = tuple(float(v) for v in self.grid.centre(si, sj))
         return any(
-            not math.isfinite(
+            (cancel is not None and cancel.is_set())
+            or not math.isfinite(
                 self.distances(table, clearance, version, g, (here[0], here[1]))[si, sj]
             )
             for g in goals
@@ -310,8 +313,9 @@ class LatticePlanner:
             if self.heuristic == "lattice":
                 h: Any = lattice_h
             else:
-                task.ground_all()  # pyperplan's own heuristics need every operator
-                h = HEURISTICS[self.heuristic](task)
+                with no_cycle_collection(freeze_after=True):  # millions of objects, no cycles
+                    task.ground_all()  # pyperplan's own heuristics need every operator
+                    h = HEURISTICS[self.heuristic](task)
             search = SEARCHES[self.search]
             if self.search == "gbf" and lattice_search.applies(task, h):
                 plan = lattice_search.search(task, h)  # the same plan, compiled

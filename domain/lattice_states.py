@@ -19,6 +19,7 @@ from itertools import islice
 from domain.pyperplan_adapter import Fact
 
 POOL_LIMIT = 100_000  # states kept per pool (~0.4 KB each); then the older half goes
+FREEZE_AFTER = 100_000  # objects made during a pause past which the survivors are frozen
 
 
 class LatticeState(frozenset[Fact]):
@@ -65,15 +66,23 @@ class StatePool:
 
 
 @contextmanager
-def no_cycle_collection() -> Iterator[None]:
+def no_cycle_collection(freeze_after: bool = False) -> Iterator[None]:
     """Python's cycle collector paused for a search (and resumed as it was). A search allocates
     hundreds of thousands of nodes, states and operators, none in a reference cycle (all are
     freed by reference counting), yet the allocations trigger full collections that walk every
-    object of the process: a fifth of a long search's time in a mission worker."""
+    object of the process: a fifth of a long search's time in a mission worker.
+
+    ``freeze_after``: what was made meanwhile and is still alive (a grounding of the whole
+    lattice, kept for its search) goes to the collector's permanent generation if there is much
+    of it (``gc.freeze``): the first collection after the pause would otherwise walk millions of
+    objects, for up to a second, with a cancel waiting behind it. Reference counting still
+    frees them; only a cycle among them would stay (none is made)."""
     enabled = gc.isenabled()
     gc.disable()
     try:
         yield
     finally:
+        if freeze_after and gc.get_count()[0] > FREEZE_AFTER:
+            gc.freeze()
         if enabled:
             gc.enable()

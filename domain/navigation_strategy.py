@@ -161,6 +161,8 @@ class NavigationStrategy:
         self._checked = (s.world.version, 0)
 
         def export() -> str:  # the plan's graph is not changed after this replan
+            if plan.status == "cancelled":
+                return ""  # no plan, and its graph may be a whole grounded lattice to write
             exported = plan.problem(lattice_shape, reshaped)
             return exported.text() if exported is not None else ""
 
@@ -226,13 +228,15 @@ class NavigationStrategy:
         )
         clearance = tier_clearance(s.world, Tier("none"))
         for name in others:
+            if cancel is not None and cancel.is_set():
+                return None  # a cancelled mission tries no other shape
             joints = tuple(float(v) for v in SHAPES[name].joints)
             other = self.table_for(name, (joints[0], joints[1], joints[2]))
             if other is None or not reshape_clear(
                 pose, table.joints, joints, clearance, self.settings.margin
             ):
                 continue
-            if not self._may_reach(other, s, pose):
+            if not self._may_reach(other, s, pose, cancel):
                 continue  # not even the loosest tier lets this body through: skip its searches
             plan = self._plan(other, s, pose, cancel)
             if not plan.solved or plan.partial:
@@ -250,7 +254,9 @@ class NavigationStrategy:
             return other
         return None
 
-    def _may_reach(self, table: MotionTable, s: Situation, pose: Any) -> bool:
+    def _may_reach(
+        self, table: MotionTable, s: Situation, pose: Any, cancel: CancelFlag | None = None
+    ) -> bool:
         """``False`` when no plan of any tier can take this shape's body to every goal: the
         loosest tier's clearance is at least every other's everywhere, and its free resting
         configurations do not connect the start with some goal (``lattice_reach``)."""
@@ -258,12 +264,13 @@ class NavigationStrategy:
         loosest = tiers(s.world.any_suspected())[-1]
         clearance = tier_clearance(s.world, loosest, goals)
         version = (s.world.version, loosest, goals)
-        if self.planner.cut_off(table, clearance, version, pose, s.goals):
+        if self.planner.cut_off(table, clearance, version, pose, s.goals, cancel):
             return False  # the centroid's distance map already says so (no 3-D labelling)
         reach = self.planner.reachability(table, clearance, version)
         start = self.planner.key_of(table, pose)
         return all(
-            reach.reaches(start, (g.x, g.y), leg_reach(g), flood_budget=PRUNING_FLOOD)
+            not (cancel is not None and cancel.is_set())  # cancelled: no shape is tried
+            and reach.reaches(start, (g.x, g.y), leg_reach(g), flood_budget=PRUNING_FLOOD)
             for g in s.goals
         )
 
