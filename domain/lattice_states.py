@@ -20,6 +20,7 @@ from domain.pyperplan_adapter import Fact
 
 POOL_LIMIT = 100_000  # states kept per pool (~0.4 KB each); then the older half goes
 FREEZE_AFTER = 100_000  # objects made during a pause past which the survivors are frozen
+freezes = [0]  # how many pauses froze what they made (a worker collects after such a mission)
 
 
 class LatticeState(frozenset[Fact]):
@@ -84,5 +85,6 @@ def no_cycle_collection(freeze_after: bool = False) -> Iterator[None]:
     finally:
         if freeze_after and gc.get_count()[0] > FREEZE_AFTER:
             gc.freeze()
+            freezes[0] += 1
         if enabled:
             gc.enable()

@@ -17,6 +17,7 @@ import numpy as np
 
 from app.executor.runner import MissionRunner
 from app.missions.spec import MissionSpec
+from domain import lattice_states
 from domain.lattice import LatticeGrid, LatticeSettings, motion_table
 from domain.lattice_reach import Reachability, body_rows
 from domain.lattice_search import kernel_table
@@ -68,3 +69,18 @@ def warm_up(library: Library) -> float:
     gc.collect()
     gc.freeze()
     return time.perf_counter() - started
+
+
+_seen = [0]  # the pauses that froze what they made (``lattice_states.freezes``) dealt with
+
+
+def unfreeze_mission() -> None:
+    """After a mission: if a pyperplan-heuristic grounding froze what was alive when it ended
+    (``domain.lattice_states.no_cycle_collection``), let the collector have it again, collect
+    what of the mission is garbage now and freeze the rest, as the warm-up did. Between
+    missions: nothing waits for it."""
+    if lattice_states.freezes[0] != _seen[0]:
+        _seen[0] = lattice_states.freezes[0]
+        gc.unfreeze()
+        gc.collect()
+        gc.freeze()

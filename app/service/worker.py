@@ -21,7 +21,7 @@ from typing import Any, Protocol
 import py_trees
 
 from app.executor.runner import MissionError, MissionRunner, UpdateRefused
-from app.executor.warm import warm_up
+from app.executor.warm import unfreeze_mission, warm_up
 from app.missions.spec import MissionSpec
 from app.missions.status import MissionStatus
 from app.service.messages import (
@@ -219,6 +219,7 @@ def run_mission(
         queue.put(Ended(MissionStatus.FAILED, f"server error ({type(exc).__name__})"))
     finally:
         py_trees.blackboard.Blackboard.clear()  # the behaviour trees' keys and clients
+        unfreeze_mission()
 
 
 def serve_missions(

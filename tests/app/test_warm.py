@@ -3,6 +3,7 @@ reason for a worker to stop."""
 
 import gc
 import logging
+import weakref
 from collections.abc import Iterator
 
 import pytest
@@ -10,7 +11,7 @@ import pytest
 from app.executor import warm
 from app.executor.runner import MissionRunner
 from app.missions.spec import MissionSpec
-from domain import lattice
+from domain import lattice, lattice_states
 from domain.lattice_planner import LatticePlanner
 from domain.navigation_strategy import NavigationStrategy, held_joints
 from primitives.library import load_bundled
@@ -68,3 +69,25 @@ def test_after_the_warm_up_what_the_process_holds_is_out_of_the_collector_s_way(
     warm.warm_up(load_bundled())
     assert gc.get_freeze_count() > 10_000
     assert len(gc.get_objects()) < gc.get_freeze_count()
+
+
+def test_what_a_mission_froze_is_collected_after_it() -> None:
+    """A grounding for pyperplan's heuristics freezes what is alive when it ends; after the
+    mission, its garbage goes and the worker's own objects are frozen again."""
+
+    class Node:
+        me: object
+
+    warm.warm_up(load_bundled())
+    node = Node()
+    node.me = node  # a cycle: only the collector frees it
+    ref = weakref.ref(node)
+    with lattice_states.no_cycle_collection(freeze_after=True):  # as a big grounding
+        grounding = [[i] for i in range(lattice_states.FREEZE_AFTER + 1_000)]
+    del node, grounding
+    gc.collect()
+    frozen_alive = ref() is not None  # frozen: out of the collector's reach
+    warm.unfreeze_mission()
+    collected = ref() is None
+    assert frozen_alive and collected
+    assert gc.get_freeze_count() > 10_000
