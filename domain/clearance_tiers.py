@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 from numpy.typing import NDArray
 
+from domain.grid import cells_round
 from domain.grid_clearance import ClearanceGrids, GridClearance
 from domain.interpolate import bilinear
 from sim.robot import Array
@@ -55,7 +56,6 @@ def tier_clearance(
     over one grid of the world model's, with its compiled form (``GridClearance.grids``)."""
     avoid = tier.suspected != "none"
     if tier.suspected == "off-goals" and goals:
-        close = _close_to(world, goals)
         merged: list[tuple[int, Array]] = []  # (model version, grid): made once per version
 
         def values() -> Array:
@@ -64,7 +64,7 @@ def tier_clearance(
             if not merged or merged[0][0] != world.version:
                 far = world.inflated_grid(tier.sensed, tier.grow, suspected=True)
                 near = world.inflated_grid(tier.sensed, CONTACT_BARE, suspected=True)
-                merged[:] = [(world.version, np.where(close, near, far))]
+                merged[:] = [(world.version, np.where(_close_to(world, goals), near, far))]
             return merged[0][1]
     else:
 
@@ -83,8 +83,9 @@ def tier_clearance(
 def _close_to(world: WorldModel, goals: Sequence[tuple[float, float]]) -> NDArray[np.bool_]:
     """The world model's cells whose centre lies within ``GOAL_UNSUSPECTED`` of a goal."""
     grid = world.grid
-    xs, ys = np.meshgrid(grid.xs, grid.ys, indexing="ij")
-    centres = np.asarray(goals, dtype=float)
-    dist = np.hypot(xs[..., None] - centres[:, 0], ys[..., None] - centres[:, 1]).min(axis=-1)
-    close: NDArray[np.bool_] = dist < GOAL_UNSUSPECTED
+    close = np.zeros((grid.nx, grid.ny), dtype=bool)
+    for gx, gy in goals:  # the box round each goal only, not every cell times every goal
+        i, j, distance = cells_round(grid.xs, grid.ys, (gx, gy), GOAL_UNSUSPECTED)
+        inside = distance < GOAL_UNSUSPECTED
+        close[i[inside], j[inside]] = True
     return close

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -103,3 +104,24 @@ def unique_inverse(cells: Flat) -> tuple[Flat, Flat]:
     inverse[order] = np.cumsum(first) - 1
     out: Flat = ordered[first]
     return out, inverse
+
+
+def cells_round(
+    xs: NDArray[np.floating[Any]],
+    ys: NDArray[np.floating[Any]],
+    point: tuple[float, float],
+    radius: float,
+) -> tuple[Flat, Flat, Array]:
+    """The cells of the box round ``point`` that may lie within ``radius`` of it (centres
+    ``xs[i]``, ``ys[j]``, both ascending; a cell more each side for rounding), ``i`` then ``j``
+    ascending, with each centre's distance to the point: a disc's cells found without
+    measuring the whole grid."""
+    i0 = max(0, int(np.searchsorted(xs, point[0] - radius)) - 1)
+    i1 = min(len(xs), int(np.searchsorted(xs, point[0] + radius, side="right")) + 1)
+    j0 = max(0, int(np.searchsorted(ys, point[1] - radius)) - 1)
+    j1 = min(len(ys), int(np.searchsorted(ys, point[1] + radius, side="right")) + 1)
+    box_i, box_j = np.meshgrid(np.arange(i0, i1), np.arange(j0, j1), indexing="ij")
+    i: Flat = box_i.ravel()
+    j: Flat = box_j.ravel()
+    distance: Array = np.hypot(xs[i] - point[0], ys[j] - point[1])
+    return i, j, distance

@@ -17,6 +17,7 @@ from scipy.sparse import coo_matrix, csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
 from domain import lattice_kernels
+from domain.grid import cells_round
 from domain.lattice import LatticeGrid, MotionTable
 from sim.robot import DEFAULT_GEOMETRY, Array
 from sim.world import footprint
@@ -79,17 +80,9 @@ def _in_reach(
 def cells_within(grid: LatticeGrid, point: tuple[float, float], radius: float) -> NDArray[np.intp]:
     """The rows of ``grid.centres`` within ``radius`` of ``point``, ascending (looked for only
     in the box of cells around it, not over the whole grid)."""
-    r, b = grid.settings.resolution, grid.bounds
-    i0 = max(0, math.floor((point[0] - radius - b.xmin) / r) - 1)
-    i1 = min(grid.nx, math.ceil((point[0] + radius - b.xmin) / r) + 1)
-    j0 = max(0, math.floor((point[1] - radius - b.ymin) / r) - 1)
-    j1 = min(grid.ny, math.ceil((point[1] + radius - b.ymin) / r) + 1)
-    if i0 >= i1 or j0 >= j1:
-        return np.zeros(0, dtype=np.intp)
-    rows = (np.arange(i0, i1)[:, None] * grid.ny + np.arange(j0, j1)[None, :]).ravel()
-    box = grid.centres[rows]
-    inside = np.hypot(box[:, 0] - point[0], box[:, 1] - point[1]) <= radius
-    out: NDArray[np.intp] = rows[inside]
+    centres = grid.centres.reshape(grid.nx, grid.ny, 2)
+    i, j, distance = cells_round(centres[:, 0, 0], centres[0, :, 1], point, radius)
+    out: NDArray[np.intp] = (i * grid.ny + j)[distance <= radius]
     return out
 
 

@@ -50,8 +50,8 @@ class LatticePlan:
     def release(self) -> None:
         """Let go of what the legs' searches kept beyond what ``problem`` reads (see
         ``LatticeTask.release``): the plan was superseded."""
-        for task in {id(t): t for t in [*self.legs, *([self.task] if self.task else [])]}.values():
-            task.release()
+        for task in [*self.legs, *([self.task] if self.task else [])]:
+            task.release()  # the first leg's task may be among the legs: releasing is idempotent
 
     @property
     def solved(self) -> bool:

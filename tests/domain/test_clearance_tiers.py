@@ -68,3 +68,14 @@ def test_the_compiled_form_reads_the_same_clearance() -> None:
     for tier in tiers(True):
         clearance = tier_clearance(world, tier, GOALS)
         np.testing.assert_array_equal(clearance.grids()(pts), clearance(pts))
+
+
+def test_the_cells_round_goals_are_those_a_scan_of_every_cell_finds() -> None:
+    """The off-goals tier's close cells, found in a box round each goal, off-grid goals too."""
+    from domain.clearance_tiers import _close_to
+
+    world = touched_world()
+    goals = [*GOALS, (2.4, -2.4), (3.5, 0.2), (-1.5, -0.5)]
+    xs, ys = np.meshgrid(world.grid.xs, world.grid.ys, indexing="ij")
+    dist = np.min([np.hypot(xs - gx, ys - gy) for gx, gy in goals], axis=0)
+    np.testing.assert_array_equal(_close_to(world, goals), dist < GOAL_UNSUSPECTED)
