@@ -8,6 +8,7 @@ from domain.clearance_tiers import (
     CONTACT_BARE,
     GOAL_UNSUSPECTED,
     Tier,
+    _close_to,
     tier_clearance,
     tiers,
 )
@@ -72,8 +73,6 @@ def test_the_compiled_form_reads_the_same_clearance() -> None:
 
 def test_the_cells_round_goals_are_those_a_scan_of_every_cell_finds() -> None:
     """The off-goals tier's close cells, found in a box round each goal, off-grid goals too."""
-    from domain.clearance_tiers import _close_to
-
     world = touched_world()
     goals = [*GOALS, (2.4, -2.4), (3.5, 0.2), (-1.5, -0.5)]
     xs, ys = np.meshgrid(world.grid.xs, world.grid.ys, indexing="ij")
