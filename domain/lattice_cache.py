@@ -84,7 +84,13 @@ class MotionCache:
         could touch their motions lies in it. Changes outside are left for the next full
         ``refresh`` (the cache no longer claims a world version, so it compares everything)."""
         if self._capped is None:
-            return
+            # No clearance seen yet (a cache first used by a repair): what it holds was
+            # checked against nothing it can compare, and everything outside the window is
+            # unknown, so compares as changed at the next full refresh.
+            self.free.clear()
+            self.moves.clear()
+            self._compiled = None
+            self._capped = np.full((self.grid.nx, self.grid.ny), np.inf)
         wi, wj = window
         capped = np.minimum(at_cells.reshape(wi.stop - wi.start, wj.stop - wj.start), self.cap)
         changed = np.abs(capped - self._capped[wi, wj]) > 1e-9

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Hashable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -44,6 +44,8 @@ PARTIAL_AFTER = 3000  # expansions after which a partial plan is taken, if it ge
 # (an expansion budget, not seconds: the same mission and seed plan the same on any machine)
 SEARCH_AGAIN = 40_000  # expansions of the search that follows when nothing got closer (the
 # time limit stays a safety net; a budget, so a faster machine does not plan differently)
+MOTION_CACHES = 12  # motion caches kept (one per shape and clearance family); the least
+# recently used goes first (each holds up to ``lattice_cache.COMPILED_LIMIT`` states)
 
 
 @dataclass(frozen=True)
@@ -166,6 +168,7 @@ class LatticePlanner:
         static: tuple[Clearance, Any] | None = None,
         previous: Sequence[LatticeAction] = (),
         reachable: bool = False,
+        family: Hashable = None,
     ) -> LatticePlan:
         """A plan from ``pose`` through ``goals`` (in the given order, or the best found).
 
@@ -175,13 +178,17 @@ class LatticePlanner:
         that is the plan; otherwise one is searched from scratch. ``reachable``: the first
         leg's goal is known to be reachable from ``pose`` (the reachability test said so for a
         clearance this one keeps at most), so that test is not asked again after a long search.
+        ``family`` names the kind of clearance this is (e.g. a tier of the navigation
+        strategy's): which motions are free is kept between replans per shape and family, so
+        that plans alternating between kinds of clearance do not make each other's verdicts
+        stale (see ``motion_cache``).
         """
         started = time.monotonic()
         deadline = started + self.time_limit
         if previous and self.heuristic == "lattice" and self.search != "bfs":
             start = self.key_of(table, pose)
             fixed = self.repairer.repair(
-                table, clearance, start, goals, previous, ordered, deadline, cancel
+                table, clearance, start, goals, previous, ordered, deadline, cancel, family
             )
             if fixed is not None:
                 done = LatticePlan(
@@ -190,7 +197,8 @@ class LatticePlanner:
                 done.graph, done.repaired = fixed.graph, True
                 done.search_ms = (time.monotonic() - started) * 1e3
                 return done
-        self.motion_cache(table).refresh(self.centre_clearance(clearance, version), version)
+        cache = self.motion_cache(table, family)
+        cache.refresh(self.centre_clearance(clearance, version), version)
         start = self.key_of(table, pose)
         si, sj, _ = start
         here_xy = tuple(float(v) for v in self.grid.centre(si, sj))
@@ -218,7 +226,7 @@ class LatticePlanner:
         plan = LatticePlan("solved", order=[g.index for g in order])
         here = start
         for leg, goal in enumerate(order):
-            task = self._leg(table, clearance, here, goal, leg == 0, deadline, cancel)
+            task = self._leg(table, clearance, here, goal, leg == 0, deadline, cancel, cache)
             task.budget = PARTIAL_AFTER
             if leg == 0:
                 plan.task = task
@@ -239,7 +247,7 @@ class LatticePlanner:
                 plan.reachable = plan.reachable or leg == 0
             if result.status == "timeout" and time.monotonic() < deadline:
                 # Nothing closer to go to yet: search again, longer.
-                task = self._leg(table, clearance, here, goal, leg == 0, deadline, cancel)
+                task = self._leg(table, clearance, here, goal, leg == 0, deadline, cancel, cache)
                 task.budget = SEARCH_AGAIN
                 if leg == 0:
                     plan.task = task
@@ -268,8 +276,10 @@ class LatticePlanner:
         first: bool,
         deadline: float,
         cancel: CancelFlag | None,
+        cache: MotionCache,
     ) -> LatticeTask:
-        """The task of one leg: from ``start`` to the tracked point on ``goal``."""
+        """The task of one leg: from ``start`` to the tracked point on ``goal``, reading and
+        keeping free motions in ``cache``."""
         task = LatticeTask(
             self.grid,
             table,
@@ -283,7 +293,7 @@ class LatticePlanner:
             self.states,
         )
         task.deadline, task.cancel = deadline, cancel
-        task.cache = self.motion_cache(table)
+        task.cache = cache
         task.at_centres = self._centres[1] if self._centres is not None else None
         return task
 
@@ -294,14 +304,20 @@ class LatticePlanner:
             self._centres = (version, clearance(self.grid.centres))
         return self._centres[1]
 
-    def motion_cache(self, table: MotionTable) -> MotionCache:
-        """The free motions of this shape's lattice kept between replans."""
-        key = (table.shape, tuple(np.round(table.joints, 3)), self.settings.margin)
-        if key not in self._motions:
-            if len(self._motions) > 4:
-                self._motions.clear()
-            self._motions[key] = MotionCache(self.grid, table, self.settings.margin, self.states)
-        return self._motions[key]
+    def motion_cache(self, table: MotionTable, family: Hashable = None) -> MotionCache:
+        """The free motions of this shape's lattice kept between replans against clearances
+        of one ``family``. A cache refreshed against another kind of clearance (another tier:
+        suspected surfaces avoided, or passed closely) forgets every state near where the two
+        differ, and that is most of a cluttered way; one per family keeps each kind's verdicts
+        for its next replan, where only what was sensed since is forgotten."""
+        key = (table.shape, tuple(np.round(table.joints, 3)), self.settings.margin, family)
+        cache = self._motions.pop(key, None)
+        if cache is None:
+            if len(self._motions) >= MOTION_CACHES:  # the least recently used goes
+                del self._motions[next(iter(self._motions))]
+            cache = MotionCache(self.grid, table, self.settings.margin, self.states)
+        self._motions[key] = cache  # (the newest last)
+        return cache
 
     def _search(self, task: LatticeTask, distances: Array) -> PlanResult:
         """pyperplan's search on the leg. When time runs out, the path to the most promising

@@ -15,7 +15,7 @@ expansion budget) is left to a full plan, which also decides unreachability.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Hashable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -204,7 +204,7 @@ class PlanRepairer:
         actions_of: Callable[
             [LatticeTask, MotionTable, list[str]], tuple[list[LatticeAction], Key]
         ],
-        cache_of: Callable[[MotionTable], MotionCache],
+        cache_of: Callable[[MotionTable, Hashable], MotionCache],
     ) -> None:
         self.grid, self.margin, self.start_margin = grid, margin, start_margin
         self.search, self.actions_of, self.cache_of = search, actions_of, cache_of
@@ -219,9 +219,11 @@ class PlanRepairer:
         ordered: bool,
         deadline: float,
         cancel: CancelFlag | None,
+        family: Hashable = None,
     ) -> Repair | None:
         """The remaining plan ``previous`` made free again from the robot's state ``start``,
-        or ``None`` if a full plan is needed."""
+        or ``None`` if a full plan is needed (``family``: the planner's motion cache to read,
+        ``LatticePlanner.motion_cache``)."""
         steps = plan_steps(self.grid, previous)
         if not steps:
             return None
@@ -277,7 +279,7 @@ class PlanRepairer:
             self.start_margin if first else self.margin,
         )
         task.deadline, task.cancel, task.budget = deadline, cancel, BUDGET
-        task.cache = self._cache(table, clearance, window)
+        task.cache = self._cache(table, clearance, window, family)
         names = self._search(task, table, clearance)
         if names is None:
             return None
@@ -328,11 +330,15 @@ class PlanRepairer:
         return spans[0], spans[1]
 
     def _cache(
-        self, table: MotionTable, clearance: Clearance, window: tuple[slice, slice]
+        self,
+        table: MotionTable,
+        clearance: Clearance,
+        window: tuple[slice, slice],
+        family: Hashable = None,
     ) -> MotionCache:
         """The shape's motion cache, refreshed around the window (a motion's reach beyond
         it: where a change could touch the motions of states in it)."""
-        cache, grid = self.cache_of(table), self.grid
+        cache, grid = self.cache_of(table, family), self.grid
         pad = math.ceil(cache.reach / grid.settings.resolution) + 2
         wi, wj = window
         around = (

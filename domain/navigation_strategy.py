@@ -205,6 +205,7 @@ class NavigationStrategy:
                 static=(world.static_clearance_at, world.static_version),
                 previous=remaining,
                 reachable=reachable,
+                family=tier,
             )
             reachable = reachable or (n == 0 and plan.reachable)
             if plan.status not in ("unreachable", "unsolvable"):

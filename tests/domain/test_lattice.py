@@ -232,6 +232,50 @@ def test_motions_kept_between_replans_equal_a_fresh_check_after_a_local_change()
         assert np.array_equal(kept, ok), key
 
 
+def test_each_clearance_family_keeps_its_own_motions_between_replans(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Plans alternating between two kinds of clearance (tiers) do not make each other's kept
+    motions stale: the second plan of a family checks no state its first checked, and plans
+    as a fresh planner does; the least recently used cache goes past the limit."""
+    from domain import lattice_planner
+
+    bounds = Bounds(-3, 3, -3, 3)
+    world = WorldModel(bounds, [Circle(0.0, 0.8, 0.3), Circle(-1.0, -0.6, 0.25)])
+    wide = WorldModel(bounds, [Circle(0.0, 0.8, 0.45), Circle(-1.0, -0.6, 0.4)])
+    assert STRAIGHT is not None
+    goal = [LegGoal(0, -2.2, 2.0, 0.1)]
+    pose = (2.2, -2.0, math.pi)
+    p = planner(bounds)
+    kinds = {"near": world, "wide": wide}
+
+    def run(kind: str, planner_: LatticePlanner) -> tuple[list[str], int]:
+        w = kinds[kind]
+        out = planner_.plan(
+            STRAIGHT, w.clearance_at, (w.version, kind), pose, goal, True, family=kind
+        )
+        assert out.solved
+        return out.pddl_plan, out.expansions
+
+    def held(kind: str) -> int:  # states whose motions the family's cache holds
+        cache = p.motion_cache(STRAIGHT, kind)
+        return len(cache.free) + len(cache.compiled_free())
+
+    first = {kind: run(kind, p) for kind in kinds}
+    kept = {kind: held(kind) for kind in kinds}
+    assert p.motion_cache(STRAIGHT, "near") is not p.motion_cache(STRAIGHT, "wide")
+    assert all(kept.values())
+    again = {kind: run(kind, p) for kind in kinds}  # nothing changed: every verdict kept
+    assert again == first == {kind: run(kind, planner(bounds)) for kind in kinds}
+    assert {kind: held(kind) for kind in kinds} == kept
+    monkeypatch.setattr(lattice_planner, "MOTION_CACHES", 2)
+    p.motion_cache(STRAIGHT, "near")  # used last: "wide" is the least recently used
+    p.motion_cache(STRAIGHT, "third")
+    assert len(p._motions) == 2
+    assert held("near") == kept["near"]
+    assert held("wide") == 0  # made anew
+
+
 def test_the_distance_map_does_not_leak_through_a_thin_wall_beside_the_goal() -> None:
     # A 0.1 m wall with the goal 0.16 m beyond it: from just the other side of the wall the
     # way goes round its end, though the goal is within the body's reach of there.

@@ -149,3 +149,34 @@ def test_a_bins_distinct_points_give_back_every_swept_point() -> None:
         unique, inverse = STRAIGHT.distinct(k)
         assert np.array_equal(unique[inverse], STRAIGHT.points[k])
         assert len(np.unique(unique, axis=0)) == len(unique) < len(STRAIGHT.points[k])
+
+
+def test_a_cache_first_refreshed_by_a_window_keeps_no_verdict_it_cannot_compare() -> None:
+    """A repair may be the first to use a cache (a new clearance family): it has no clearance
+    to compare with, so it keeps nothing it held, and later changes in the window are seen."""
+    world = scene(5)
+    grid = LatticePlanner(BOUNDS, SETTINGS).grid
+    assert STRAIGHT is not None
+    pool = StatePool()
+    cache = MotionCache(grid, STRAIGHT, SETTINGS.margin, pool)
+    window = (slice(10, 60), slice(10, 60))
+    centres = grid.centres.reshape(grid.nx, grid.ny, 2)[window].reshape(-1, 2)
+    cache.refresh_window(world.clearance_at(centres), window)
+    search(leg(world, cache, pool), world, greedy_best_first_search, prune=True)
+    held = set(cache.free)
+    assert held
+    # something sensed inside the window, then a second window refresh (the next repair)
+    world.add_contact(tuple(float(v) for v in grid.centre(35, 35)))
+    cache.refresh_window(world.clearance_at(centres), window)
+    assert len(cache.free) < len(held)
+    check = leg(world, None, None)
+    for number, free in cache.free.items():
+        i, j = grid.decode(number)[:2]
+        if 10 <= i < 60 and 10 <= j < 60:
+            assert np.array_equal(free, check.free_mask(grid.decode(number))), (i, j)
+    # ... and a full refresh forgets the states it knows nothing about round the window
+    cache.refresh(world.clearance_at(grid.centres), world.version)
+    kept = leg(world, cache, pool)
+    assert search(kept, world, greedy_best_first_search, prune=True) == search(
+        leg(world, None, None), world, greedy_best_first_search, prune=True
+    )
