@@ -74,7 +74,8 @@ class LatticePlanner:
         self.settings = settings
         self.search, self.heuristic, self.time_limit = search, heuristic, time_limit
         self._maps: dict[tuple[Any, ...], Array] = {}
-        self._reach: dict[tuple[Any, ...], Reachability] = {}
+        # version and shape -> (shape and family, answers)
+        self._reach: dict[tuple[Any, ...], tuple[tuple[Any, ...], Reachability]] = {}
         self._motions: dict[tuple[Any, ...], MotionCache] = {}
         self.states = StatePool()  # search states shared by every search on this grid
         self._centres: tuple[Any, Array] | None = None
@@ -145,15 +146,26 @@ class LatticePlanner:
             for g in goals
         )
 
-    def reachability(self, table: MotionTable, clearance: Clearance, version: Any) -> Reachability:
-        """The free configuration space's components for this world version and shape."""
-        key = (version, table.shape, tuple(np.round(table.joints, 3)))
+    def reachability(
+        self, table: MotionTable, clearance: Clearance, version: Any, family: Hashable = None
+    ) -> Reachability:
+        """The free configuration space's components for this world version and shape; the
+        answers for an earlier version of the same ``family`` of clearance (see ``plan``) are
+        updated where the clearance changed rather than made afresh."""
+        shape = (table.shape, tuple(np.round(table.joints, 3)))
+        key = (version, *shape)
         if key not in self._reach:
+            earlier = next(
+                (r for of, r in reversed(self._reach.values()) if of == (*shape, family)), None
+            )
             if len(self._reach) > 4:
                 self._reach.clear()
             at_centres = self.centre_clearance(clearance, version)
-            self._reach[key] = Reachability(self.grid, table, at_centres, self.settings.margin)
-        return self._reach[key]
+            self._reach[key] = (
+                (*shape, family),
+                Reachability(self.grid, table, at_centres, self.settings.margin, earlier),
+            )
+        return self._reach[key][1]
 
     # -- planning -----------------------------------------------------------------------------
     def plan(
@@ -235,7 +247,7 @@ class LatticePlanner:
             # After a long search, first make sure the body can get there at all.
             known = leg == 0 and reachable
             if long_search and not known:
-                if not self.reachability(table, clearance, version).reaches(
+                if not self.reachability(table, clearance, version, family).reaches(
                     here, (goal.x, goal.y), task.reach
                 ):
                     plan.status, plan.actions = "unreachable", []

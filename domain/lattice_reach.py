@@ -85,9 +85,13 @@ def free_configurations(
     at_centres: Array,
     margin: float,
     rows: BodyRows | None = None,
+    previous: tuple[Array, NDArray[np.bool_]] | None = None,
 ) -> NDArray[np.bool_]:
     """``[K, nx, ny]``: where the resting body may lie (relaxed by half a cell diagonal), from
-    the clearance at ``grid.centres`` (``rows``: ``body_rows`` of the same, if made already)."""
+    the clearance at ``grid.centres`` (``rows``: ``body_rows`` of the same, if made already).
+    ``previous``: the clearance at the centres and the answer for an earlier world model of
+    the same lattice, body and margin; only the cells within the body's reach of a cell whose
+    clearance changed are compared again (a replan after sensing changes little)."""
     nx, ny, r = grid.nx, grid.ny, grid.settings.resolution
     clear = at_centres.reshape(nx, ny)
     # Padded with -inf: a body point off the grid is outside the arena.
@@ -95,14 +99,32 @@ def free_configurations(
     padded = np.full((nx + 2 * pad, ny + 2 * pad), -np.inf)
     padded[pad : pad + nx, pad : pad + ny] = clear
     shifts, thresholds, counts = rows if rows is not None else body_rows(grid, table, margin)
-    free = np.ones((grid.settings.orientations, nx, ny), dtype=bool)
+    box = (slice(0, nx), slice(0, ny))
+    if previous is not None and previous[1].shape == (grid.settings.orientations, nx, ny):
+        changed = clear != previous[0].reshape(nx, ny)
+        free = previous[1].copy()
+        rows_hit, cols_hit = (
+            np.flatnonzero(changed.any(axis=1)),
+            np.flatnonzero(changed.any(axis=0)),
+        )
+        if rows_hit.size == 0:
+            return free
+        # A configuration reads cells no further than ``pad`` from its own.
+        box = (
+            slice(max(0, int(rows_hit[0]) - pad), min(nx, int(rows_hit[-1]) + pad + 1)),
+            slice(max(0, int(cols_hit[0]) - pad), min(ny, int(cols_hit[-1]) + pad + 1)),
+        )
+        free[:, box[0], box[1]] = True
+    else:
+        free = np.ones((grid.settings.orientations, nx, ny), dtype=bool)
+    (i0, i1), (j0, j1) = (box[0].start, box[0].stop), (box[1].start, box[1].stop)
     for k, n in enumerate(counts.tolist()):
+        part = free[k, i0:i1, j0:j1]
         if n < 0:
-            free[k] = False
+            part[...] = False
             continue
         for (di, dj), need in zip(shifts[k, :n], thresholds[k, :n], strict=True):
-            window = padded[pad + di : pad + di + nx, pad + dj : pad + dj + ny]
-            free[k] &= window >= need
+            part &= padded[pad + di + i0 : pad + di + i1, pad + dj + j0 : pad + dj + j1] >= need
     return free
 
 
@@ -117,9 +139,25 @@ class Reachability:
     comparing."""
 
     def __init__(
-        self, grid: LatticeGrid, table: MotionTable, at_centres: Array, margin: float
+        self,
+        grid: LatticeGrid,
+        table: MotionTable,
+        at_centres: Array,
+        margin: float,
+        previous: Reachability | None = None,
     ) -> None:
+        """``previous``: the answers for an earlier world model of the same lattice, body and
+        margin, whose free configurations are updated where the clearance changed instead
+        of made afresh (see ``free_configurations``)."""
         self.grid, self.table, self.margin = grid, table, margin
+        # Only labelled answers help, and holding one that is not would chain every version.
+        if previous is not None and not previous.labelled:
+            previous = previous._previous
+        if previous is not None and (
+            previous.table is not table or previous.grid is not grid or previous.margin != margin
+        ):
+            previous = None  # another body, lattice or margin: other free configurations
+        self._previous: Reachability | None = previous
         self.at_centres = at_centres
         self.clear = np.ascontiguousarray(at_centres.reshape(grid.nx, grid.ny), dtype=float)
         self.rows = body_rows(grid, table, margin)
@@ -163,6 +201,11 @@ class Reachability:
                 return found
         return self._labelled_reaches(starts, goal, limit)
 
+    @property
+    def labelled(self) -> bool:
+        """Whether every free configuration's component is known (a question needed it)."""
+        return self._labels is not None
+
     def _labelled_reaches(
         self, starts: NDArray[np.int64], goal: tuple[float, float], limit: float
     ) -> bool:
@@ -186,8 +229,12 @@ class Reachability:
     def _labelled(self) -> tuple[NDArray[np.bool_], NDArray[np.int32], NDArray[np.int32]]:
         """Every free configuration's component (built on the first question)."""
         if self._labels is None:
+            earlier, self._previous = self._previous, None
+            known = None
+            if earlier is not None and earlier._labels is not None:
+                known = (earlier.at_centres, earlier._labels[0])
             free = free_configurations(
-                self.grid, self.table, self.at_centres, self.margin, self.rows
+                self.grid, self.table, self.at_centres, self.margin, self.rows, known
             )
             structure = np.zeros((3, 3, 3), dtype=bool)
             structure[1] = True  # the 8 neighbouring cells at one orientation ...

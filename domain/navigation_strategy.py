@@ -267,7 +267,7 @@ class NavigationStrategy:
         version = (s.world.version, loosest, goals)
         if self.planner.cut_off(table, clearance, version, pose, s.goals, cancel):
             return False  # the centroid's distance map already says so (no 3-D labelling)
-        reach = self.planner.reachability(table, clearance, version)
+        reach = self.planner.reachability(table, clearance, version, loosest)
         start = self.planner.key_of(table, pose)
         return all(
             not (cancel is not None and cancel.is_set())  # cancelled: no shape is tried

@@ -75,3 +75,37 @@ def test_a_flood_over_budget_leaves_the_answer_to_the_labelling() -> None:
     assert reach._labels is None
     assert reach.reaches(start, outside, 0.08) and not reach.reaches(start, inside, 0.08)
     assert reach._labels is not None  # it did answer
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_free_configurations_updated_from_an_earlier_world_equal_a_fresh_count(seed: int) -> None:
+    """A replan's free configurations are the last ones updated where the clearance changed
+    (something sensed: a disc added, one moved away): equal to those made afresh, and so are
+    the answers of a Reachability made from the earlier one."""
+    from domain.lattice_reach import free_configurations
+
+    assert TABLE is not None
+    rng = np.random.default_rng(seed)
+    grid = LatticeGrid(Bounds(-2.0, 2.0, -2.0, 2.0), SETTINGS)
+    discs = [(*rng.uniform(-1.8, 1.8, 2), rng.uniform(0.05, 0.3)) for _ in range(6)]
+    before = clearance(grid, discs)
+    first = Reachability(grid, TABLE, before, margin=0.03)
+    first._labelled()  # as a question the flood could not answer would
+    assert first.labelled
+    changed = [*discs[1:], (*rng.uniform(-1.8, 1.8, 2), 0.2)]  # one gone, one found
+    after = clearance(grid, changed)
+    fresh = free_configurations(grid, TABLE, after, 0.03)
+    updated = free_configurations(grid, TABLE, after, 0.03, previous=(before, first._labels[0]))
+    assert np.array_equal(updated, fresh)
+    assert np.array_equal(
+        free_configurations(grid, TABLE, before, 0.03, previous=(before, fresh)), fresh
+    )  # nothing changed: kept as it was
+    second = Reachability(grid, TABLE, after, margin=0.03, previous=first)
+    again = Reachability(grid, TABLE, after, margin=0.03)
+    for _ in range(8):
+        start = (int(rng.integers(grid.nx)), int(rng.integers(grid.ny)), int(rng.integers(64)))
+        goal = tuple(rng.uniform(-1.8, 1.8, 2))
+        assert second.reaches(start, goal, 0.08, compiled=False) == again.reaches(
+            start, goal, 0.08, compiled=False
+        )
+    assert second.labelled and np.array_equal(second._labels[0], fresh)
