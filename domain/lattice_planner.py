@@ -23,6 +23,7 @@ from domain.goal_order import LegGoal, order_goals
 from domain.lattice import Key, LatticeGrid, LatticeSettings, MotionTable
 from domain.lattice_cache import MotionCache
 from domain.lattice_distances import centroid_need, distance_map
+from domain.lattice_entry import goal_entered
 from domain.lattice_heuristic import LatticeHeuristic
 from domain.lattice_plan import LatticeAction, LatticePlan
 from domain.lattice_reach import Reachability
@@ -244,12 +245,14 @@ class LatticePlanner:
                 plan.task = task
             result = self._search(task, maps[goal.index])
             long_search = result.status == "timeout" or result.reason == "partial"
-            # After a long search, first make sure the body can get there at all.
+            # After a long search, first make sure the body can get there at all: some free
+            # motion ends on the goal (domain/lattice_entry.py), and the resting body's free
+            # configurations connect the start with it (domain/lattice_reach.py).
             known = leg == 0 and reachable
             if long_search and not known:
-                if not self.reachability(table, clearance, version, family).reaches(
-                    here, (goal.x, goal.y), task.reach
-                ):
+                if not goal_entered(task) or not self.reachability(
+                    table, clearance, version, family
+                ).reaches(here, (goal.x, goal.y), task.reach):
                     plan.status, plan.actions = "unreachable", []
                     plan.reason = (
                         f"unreachable: goal {goal.index} at ({goal.x:g}, {goal.y:g}): no "

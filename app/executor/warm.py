@@ -18,10 +18,14 @@ import numpy as np
 from app.executor.runner import MissionRunner
 from app.missions.spec import MissionSpec
 from domain import lattice_states
+from domain.clearance_tiers import Tier, tier_clearance
 from domain.lattice import LatticeGrid, LatticeSettings, motion_table
+from domain.lattice_entry import goal_entered
 from domain.lattice_reach import Reachability, body_rows
 from domain.lattice_search import kernel_table
+from domain.lattice_task import LatticeTask
 from domain.navigation_strategy import held_joints
+from domain.worldmodel import WorldModel
 from primitives.library import Library
 from primitives.shapes import SHAPES
 from sim.world import Bounds
@@ -43,7 +47,7 @@ WARM_UP = {
 
 
 def warm_up(library: Library) -> float:
-    """Run the warm-up mission and one reachability question, untimed, then move what the
+    """Run the warm-up mission and one reachability and goal-entry question, untimed, then move what the
     process holds to the collector's permanent generation (``gc.freeze``); returns the seconds
     it took. Never raises: a process that cannot warm up still runs missions (cold)."""
     started = time.perf_counter()
@@ -58,9 +62,12 @@ def warm_up(library: Library) -> float:
                 kernel_table(made, settings.margin)
                 body_rows(grid, made, settings.margin)
         table = motion_table(library, "straight", (0.0, 0.0, 0.0), settings)
-        if table is not None:  # the reachability kernel (loaded only after a long search)
+        if table is not None:  # the kernels loaded only after a long search
             reach = Reachability(grid, table, np.full(grid.nx * grid.ny, 1.0), 0.02)
             reach.reaches((grid.nx // 2, grid.ny // 2, 0), (0.5, 0.5), 0.1)
+            clearance = tier_clearance(WorldModel(grid.bounds, []), Tier("none"))
+            start = (grid.nx // 2, grid.ny // 2, 0)
+            goal_entered(LatticeTask(grid, table, clearance, start, (0.5, 0.5), 0.1, 0.02, 0.02, 0))
     except Exception:  # a warm-up is an optimisation, never a reason to stop
         log.exception("warm-up mission failed; missions will run cold")
     # What the process holds now (modules, the library, compiled kernels, motion tables) lives
