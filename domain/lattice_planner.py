@@ -245,21 +245,28 @@ class LatticePlanner:
                 plan.task = task
             result = self._search(task, maps[goal.index])
             long_search = result.status == "timeout" or result.reason == "partial"
-            # After a long search, first make sure the body can get there at all: some free
-            # motion ends on the goal (domain/lattice_entry.py), and the resting body's free
-            # configurations connect the start with it (domain/lattice_reach.py).
-            known = leg == 0 and reachable
-            if long_search and not known:
-                if not goal_entered(task) or not self.reachability(
-                    table, clearance, version, family
-                ).reaches(here, (goal.x, goal.y), task.reach):
+            # After a long search, first make sure the body can get there at all: the resting
+            # body's free configurations connect the start with the goal (domain/lattice_reach.py)
+            # and, before searching again when nothing got closer, some free motion ends on the
+            # goal (domain/lattice_entry.py). A partial plan is left to run instead: on the way,
+            # sensing may clear what this tier keeps clear of only on a guess (a suspected
+            # surface), which a plan that gives up on the tier would never learn.
+            known = leg == 0 and reachable  # (the resting-body test passed in a stricter tier)
+            if long_search:
+                enters = result.status != "timeout" or goal_entered(task)
+                if not enters or not (
+                    known
+                    or self.reachability(table, clearance, version, family).reaches(
+                        here, (goal.x, goal.y), task.reach
+                    )
+                ):
                     plan.status, plan.actions = "unreachable", []
                     plan.reason = (
                         f"unreachable: goal {goal.index} at ({goal.x:g}, {goal.y:g}): no "
                         f"collision-free motion of the {table.shape} body brings its head there"
                     )
                     break
-                plan.reachable = plan.reachable or leg == 0
+                plan.reachable = plan.reachable or (leg == 0 and not known)
             if result.status == "timeout" and time.monotonic() < deadline:
                 # Nothing closer to go to yet: search again, longer.
                 task = self._leg(table, clearance, here, goal, leg == 0, deadline, cancel, cache)

@@ -17,7 +17,7 @@ from domain.lattice import LatticeGrid, LatticeSettings, motion_table
 from domain.lattice_distances import centroid_need, distance_map
 from domain.lattice_entry import goal_entered
 from domain.lattice_heuristic import LatticeHeuristic
-from domain.lattice_planner import PARTIAL_AFTER, LatticePlanner
+from domain.lattice_planner import PARTIAL_AFTER, SEARCH_AGAIN, LatticePlanner
 from domain.lattice_reach import Reachability
 from domain.lattice_task import LatticeTask
 from domain.worldmodel import WorldModel
@@ -118,13 +118,13 @@ def test_a_start_on_the_goal_is_entered() -> None:
 def test_the_planner_answers_unreachable_without_a_long_search(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """A goal beside the bar that no motion of the body brings the head onto (though the
-    resting body's configurations connect with it): the planner says so after its first short
-    search; without the entry test it would hand out a partial plan towards it (or, with
-    nothing closer, search ``SEARCH_AGAIN`` expansions more)."""
+    """Beside a goal no motion of the body brings the head onto (though the resting body's
+    configurations connect with it), where the first short search gets no closer: the planner
+    says so at once; without the entry test it would search ``SEARCH_AGAIN`` expansions more.
+    A short search that got closer hands out its partial plan as before (sensing on the way
+    may clear a guessed surface)."""
     assert STRAIGHT is not None
-    world, goal = scene(0)
-    start = task_of(world, goal, 0).start_key
+    world, goal = scene(2)
     budgets: list[float] = []
     search = LatticePlanner._search
 
@@ -134,16 +134,20 @@ def test_the_planner_answers_unreachable_without_a_long_search(
 
     monkeypatch.setattr(LatticePlanner, "_search", counted)
 
-    def plan() -> tuple[str, str, bool]:
+    def plan(start: tuple[int, int, int]) -> tuple[str, str, bool]:
+        budgets.clear()
         planner = LatticePlanner(BOUNDS, COARSE)
         pose = tuple(float(v) for v in planner.pose_of(STRAIGHT, start))
         legs = [LegGoal(0, goal[0], goal[1], 0.1)]
         out = planner.plan(STRAIGHT, world_clearance(world), world.version, pose, legs, True)
         return out.status, out.reason, out.partial
 
-    status, reason, _ = plan()
+    beside = (12, 12, 4)  # 0.3 m from the goal, across the bar's end
+    status, reason, _ = plan(beside)
     assert status == "unreachable" and "no collision-free motion" in reason
     assert budgets == [PARTIAL_AFTER]
-    monkeypatch.setattr(lattice_planner, "goal_entered", lambda task: True)
-    budgets.clear()
-    assert plan() == ("solved", "", True) and budgets == [PARTIAL_AFTER]  # a partial plan
+    assert plan(task_of(world, goal, 0).start_key) == ("solved", "", True)  # farther: closer
+    with monkeypatch.context() as m:
+        m.setattr(lattice_planner, "goal_entered", lambda task: True)
+        plan(beside)
+        assert budgets == [PARTIAL_AFTER, SEARCH_AGAIN]
