@@ -135,11 +135,16 @@ class Supervisor:
     def submit(self, mission_id: str, force: bool = False) -> None:
         """Queue a stored mission (from any thread); ``QueueFull`` unless ``force``."""
         assert self.queue is not None and self.loop is not None
-        with self.lock:
-            if not force and self.full():
-                raise QueueFull(mission_id)
+        if force:
+            # Without the lock: a set's add is atomic, and a mission thread may hold the lock
+            # through a store read (a burst's batch waited milliseconds per mission for it).
             self.known.add(mission_id)
-            self.metrics.queued.set(len(self.known))
+        else:
+            with self.lock:  # the check and the add at once
+                if self.full():
+                    raise QueueFull(mission_id)
+                self.known.add(mission_id)
+        self.metrics.queued.set(len(self.known))
         try:
             running = asyncio.get_running_loop()
         except RuntimeError:
