@@ -42,6 +42,9 @@ class Settings(BaseModel):
     # Each worker first runs a short untimed mission, loading compiled kernels and motion
     # tables before its first real one (off: the first mission of each worker pays for them).
     warm_up: bool = True
+    # Workers that must have finished their warm-up for /readyz to answer 200 (0: do not wait;
+    # more than the pool: all of it).
+    ready_workers: int = Field(1, ge=0, le=256)
     executor: Literal["local", "ray"] = "local"  # where missions run: local processes or Ray
     ray_address: str | None = None  # a Ray cluster (e.g. ray://head:10001); None: a local Ray
     max_queued: int = Field(1000, ge=0, le=1_000_000)  # waiting missions before POST answers 503

@@ -21,6 +21,10 @@ class Metrics:
             registry=r,
             buckets=(0.001, 0.005, 0.01, 0.025, 0.05, 0.1, 0.25, 1, 5),
         )
+        self.workers = Gauge("screwsnake_workers", "Mission workers in the pool", registry=r)
+        self.workers_warm = Gauge(
+            "screwsnake_workers_warm", "Mission workers whose warm-up has ended", registry=r
+        )
         self.ws_clients = Gauge("screwsnake_ws_clients", "Connected websocket clients", registry=r)
         self.frames_sent = Counter("screwsnake_ws_frames_sent", "Websocket frames sent", registry=r)
         self.frames_dropped = Counter(

@@ -4,7 +4,9 @@ A mission no longer waits for a process to start (and to import numpy, the plann
 library): the pool's processes start with the service, get the library once, and take one
 ``Job`` after another. Each worker has its own channels, so a worker that dies, hangs or ignores
 a cancel is killed and replaced without touching the others. ``Worker`` is the interface the
-supervisor drives; ``app.service.ray_pool`` implements it with Ray actors.
+supervisor drives; ``app.service.ray_pool`` implements it with Ray actors. A worker is *warm*
+once its warm-up has ended (``Worker.warm``): the service is ready (``/readyz``) only when
+enough of them are; a replaced worker is cold again until its own warm-up ends.
 """
 
 from __future__ import annotations
@@ -15,8 +17,9 @@ import queue as queue_module
 from multiprocessing.queues import Queue
 from typing import Protocol
 
+from app.executor.warm import warm_up
 from app.service.messages import Addressed, Job, Update, WorkerMessage
-from app.service.worker import SharedFlag, serve_missions
+from app.service.worker import SharedFlag, WarmUp, serve_missions
 from app.settings import Settings
 from primitives.library import Library
 
@@ -54,6 +57,11 @@ class Worker(Protocol):
         """Whether the worker can take a mission."""
         ...
 
+    def warm(self) -> bool:
+        """Whether the worker has finished its warm-up (and is still there): a mission given
+        now starts at once. Never blocks."""
+        ...
+
     def restart(self) -> None:
         """Kill the worker (whatever it is doing) and start a fresh one in its place."""
         ...
@@ -66,8 +74,11 @@ class Worker(Protocol):
 class ProcessWorker:
     """A worker process on this machine (``forkserver``: cheap to start, safe beside threads)."""
 
-    def __init__(self, index: int, library: Library, settings: Settings) -> None:
+    def __init__(
+        self, index: int, library: Library, settings: Settings, warm: WarmUp | None = warm_up
+    ) -> None:
         self.index, self.library, self.settings = index, library, settings
+        self.warm_up = warm if settings.warm_up else None  # None: warm once it has started
         self._spawn()
 
     def _spawn(self) -> None:
@@ -75,6 +86,8 @@ class ProcessWorker:
         self.outbox: Queue[WorkerMessage] = CONTEXT.Queue()
         self.updates: Queue[Addressed] = CONTEXT.Queue()
         self.cancel_flag = SharedFlag(CONTEXT.RawValue("b", 0))
+        # Raised by the process once warm; a fresh one per process, so a replacement starts cold.
+        self.warm_flag = SharedFlag(CONTEXT.RawValue("b", 0))
         args = (
             self.jobs,
             self.outbox,
@@ -84,7 +97,8 @@ class ProcessWorker:
             self.settings.ws_rate,
             os.getpid(),
             self.settings.worker_nice,
-            self.settings.warm_up,
+            self.warm_up,
+            self.warm_flag,
         )
         self.process = CONTEXT.Process(
             target=serve_missions, args=args, name=f"mission-worker-{self.index}", daemon=True
@@ -121,6 +135,9 @@ class ProcessWorker:
     def alive(self) -> bool:
         return self.process.is_alive()
 
+    def warm(self) -> bool:
+        return self.warm_flag.is_set() and self.process.is_alive()
+
     def restart(self) -> None:
         self._kill()
         self._spawn()
@@ -141,10 +158,11 @@ class ProcessWorker:
             channel.cancel_join_thread()  # nobody reads them any more: never block on them
 
 
-def make_workers(settings: Settings, library: Library) -> list[Worker]:
-    """The pool the settings ask for: ``max_running`` local processes or Ray actors."""
+def make_workers(settings: Settings, library: Library, warm: WarmUp = warm_up) -> list[Worker]:
+    """The pool the settings ask for: ``max_running`` local processes or Ray actors, each
+    running ``warm`` first (when the settings ask for a warm-up)."""
     if settings.executor == "ray":
         from app.service.ray_pool import make_ray_workers  # connected by then (``connect``)
 
-        return list(make_ray_workers(settings, library))
-    return [ProcessWorker(i, library, settings) for i in range(settings.max_running)]
+        return list(make_ray_workers(settings, library, warm))
+    return [ProcessWorker(i, library, settings, warm) for i in range(settings.max_running)]

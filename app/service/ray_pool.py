@@ -4,7 +4,8 @@ The actor runs one mission at a time in a thread and buffers its messages; the s
 them (``poll``, a batch at a time) and relays them to the store and the websocket hub, which stay
 in the service process. Cancel and live updates are actor calls. A lost actor (its node died,
 it was killed) ends its mission ``failed`` and is replaced. ``SCREWSNAKE_RAY_ADDRESS`` names a
-cluster; unset, a local Ray instance is started (or the one this process already runs).
+cluster; unset, a local Ray instance is started (or the one this process already runs). An
+actor warms up in its constructor, so its first answer (``ready``) says it is warm.
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from typing import Any
 from app.executor.warm import warm_up
 from app.service.messages import Addressed, Job, Update, WorkerMessage
 from app.service.pool import WorkerLost
-from app.service.worker import run_mission
+from app.service.worker import WarmUp, run_mission
 from app.settings import Settings, cores
 from primitives.library import Library
 
@@ -36,20 +37,22 @@ PACKAGES = ("app", "domain", "primitives", "sim")  # shipped to a cluster with e
 class MissionActor:
     """Runs missions one after another on a Ray worker; polled for their messages."""
 
-    def __init__(self, library: Library, ws_rate: float, niceness: int, warm: bool) -> None:
+    def __init__(
+        self, library: Library, ws_rate: float, niceness: int, warm: WarmUp | None
+    ) -> None:
         if niceness:
             with contextlib.suppress(OSError):
                 os.nice(niceness)  # on a shared machine the API keeps priority
         self.library, self.ws_rate = library, ws_rate
-        if warm:
-            warm_up(library)  # kernels and motion tables loaded before the first mission comes
+        if warm is not None:  # in the constructor: no call (``ready``, ``begin``) runs before
+            warm(library)  # kernels and motion tables loaded before the first mission comes
         self.outbox: queue_module.Queue[WorkerMessage] = queue_module.Queue()
         self.updates: queue_module.Queue[Addressed] = queue_module.Queue()
         self.cancel_flag = threading.Event()
         self.thread: threading.Thread | None = None
 
     def ready(self) -> int:
-        """Answers once the actor has started (and imported the mission code): its pid."""
+        """Answers once the actor has started and warmed up: its pid."""
         return os.getpid()
 
     def begin(self, job: Job) -> int:
@@ -130,14 +133,17 @@ def init(settings: Settings) -> None:
         )
 
 
-def make_ray_workers(settings: Settings, library: Library) -> list[RayWorker]:
-    """The pool's actors, once they have all started (a mission then starts at once)."""
+def make_ray_workers(
+    settings: Settings, library: Library, warm: WarmUp = warm_up
+) -> list[RayWorker]:
+    """The pool's actors, once they have all started and warmed up (a mission then starts at
+    once)."""
     import ray
 
     library_ref = ray.put(library)  # in the object store once, not per actor or mission
-    workers = [RayWorker(i, library_ref, settings) for i in range(settings.max_running)]
+    workers = [RayWorker(i, library_ref, settings, warm) for i in range(settings.max_running)]
     try:
-        ray.get([w.actor.ready.remote() for w in workers], timeout=CALL_SECONDS)
+        ray.get([w.started for w in workers], timeout=CALL_SECONDS)
     except ray.exceptions.GetTimeoutError:  # e.g. a cluster still scaling up: missions wait
         log.warning("Ray actors not all started after %g s; missions wait for them", CALL_SECONDS)
     return workers
@@ -146,22 +152,28 @@ def make_ray_workers(settings: Settings, library: Library) -> list[RayWorker]:
 class RayWorker:
     """One slot of the pool as a Ray actor (``app.service.pool.Worker``)."""
 
-    def __init__(self, index: int, library_ref: Any, settings: Settings) -> None:
+    def __init__(
+        self, index: int, library_ref: Any, settings: Settings, warm: WarmUp | None = warm_up
+    ) -> None:
         import ray
 
         self.ray = ray
         self.index, self.settings = index, settings
         self.library_ref = library_ref  # the library in Ray's object store
+        self.warm_up = warm if settings.warm_up else None
         self.remote: Any = ray.remote(MissionActor)
         self.lost = False
         self.pending: Any = None  # an unanswered poll: its messages must not be lost
+        self.warmed: Any = None  # the ``started`` answer of the actor last seen warm
         self._spawn()
 
     def _spawn(self) -> None:
         settings = self.settings
         self.actor = self.remote.options(num_cpus=1, max_concurrency=4, max_restarts=0).remote(
-            self.library_ref, settings.ws_rate, settings.worker_nice, settings.warm_up
+            self.library_ref, settings.ws_rate, settings.worker_nice, self.warm_up
         )
+        # Answered once the constructor (the warm-up) has run: this actor is warm from then on.
+        self.started: Any = self.actor.ready.remote()
         self.lost, self.pending = False, None
 
     def begin(self, job: Job) -> None:
@@ -193,6 +205,24 @@ class RayWorker:
     def alive(self) -> bool:
         return not self.lost
 
+    def warm(self) -> bool:
+        started = self.started  # this actor's, even if a restart (another thread) swaps it
+        if self.lost:
+            return False
+        if self.warmed is started:
+            return True
+        done, _ = self.ray.wait([started], timeout=0)  # a look, never a wait
+        if not done:
+            return False
+        try:
+            self.ray.get(started, timeout=0)
+        except self.ray.exceptions.RayError:  # it died in its constructor: gone, not warm
+            if started is self.started:
+                self.lost = True
+            return False
+        self.warmed = started  # remembered per actor: its replacement starts cold
+        return started is self.started
+
     def restart(self) -> None:
         self._kill()
         self._spawn()
@@ -201,5 +231,6 @@ class RayWorker:
         self._kill()
 
     def _kill(self) -> None:
+        self.lost = True  # neither alive nor warm while it goes (and until its successor runs)
         with contextlib.suppress(Exception):  # already gone (or Ray is shutting down)
             self.ray.kill(self.actor, no_restart=True)

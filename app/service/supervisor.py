@@ -5,8 +5,10 @@ worker runs one mission after another, so a mission starts without waiting for a
 thread here per running mission reads its worker's messages and hands them to the relay
 (``app.service.relay``: stored, then broadcast). A mission always ends in a terminal state, also
 when its worker dies, outlives the wall-clock limit or ignores a cancel: the worker is then
-killed and replaced, and the mission ends with the reason. Waiting missions are bounded
-(``max_queued``) and cost no OS resources.
+killed and replaced, and the mission ends with the reason. A worker that dies while idle is
+replaced too (within ``IDLE_CHECK_SECONDS``), and ``warmth`` says how many workers have finished
+their warm-up (``/readyz``). Waiting missions are bounded (``max_queued``) and cost no OS
+resources.
 """
 
 from __future__ import annotations
@@ -39,6 +41,10 @@ CANCEL_POLL_SECONDS = 0.1  # how often a cancelled mission's worker is looked at
 CANCEL_GRACE = 0.6  # seconds a worker has to honour a cancel before it is stopped
 WALL_GRACE = 5.0  # seconds past the wall-clock limit before a worker is stopped
 CANCELLED = "cancelled by request"
+# How often idle workers are looked at: one that died idle is replaced then, not only when a
+# mission comes for it (a dead worker is never warm: a pool of them would keep /readyz at 503,
+# and a service that is not ready may get no mission to replace them).
+IDLE_CHECK_SECONDS = 2.0
 
 
 class QueueFull(Exception):
@@ -95,6 +101,7 @@ class Supervisor:
             self.submit(mission_id, force=True)
         self._keep(asyncio.create_task(self._dispatch()))
         self._keep(asyncio.create_task(self._reconcile_periodically()))
+        self._keep(asyncio.create_task(self._replace_dead_idle()))
 
     async def stop(self) -> None:
         self.shutting_down.set()
@@ -119,14 +126,25 @@ class Supervisor:
         """Whether a new mission would exceed ``max_queued`` waiting missions."""
         return len(self.known) >= self.settings.max_queued
 
+    def warmth(self) -> tuple[int, int]:
+        """(workers warm now, workers in the pool): a worker is warm once its warm-up ended
+        and for as long as it lives; its replacement starts cold. Never blocks."""
+        warm = sum(1 for worker in list(self.workers) if worker.warm())
+        return warm, self.settings.max_running
+
     def submit(self, mission_id: str, force: bool = False) -> None:
         """Queue a stored mission (from any thread); ``QueueFull`` unless ``force``."""
         assert self.queue is not None and self.loop is not None
-        with self.lock:
-            if not force and self.full():
-                raise QueueFull(mission_id)
+        if force:
+            # Without the lock: a set's add is atomic, and a mission thread may hold the lock
+            # through a store read (a burst's batch waited milliseconds per mission for it).
             self.known.add(mission_id)
-            self.metrics.queued.set(len(self.known))
+        else:
+            with self.lock:  # the check and the add at once
+                if self.full():
+                    raise QueueFull(mission_id)
+                self.known.add(mission_id)
+        self.metrics.queued.set(len(self.known))
         try:
             running = asyncio.get_running_loop()
         except RuntimeError:
@@ -144,6 +162,28 @@ class Supervisor:
                 await self.loop.run_in_executor(None, reconcile, self.store, self)
             except Exception:  # a database outage: try again next period
                 log.exception("reconciliation failed")
+
+    async def _replace_dead_idle(self) -> None:
+        """Every ``IDLE_CHECK_SECONDS``, replace the idle workers that died (killed, out of
+        memory). Each is out of the idle queue while it is looked at and replaced, so no
+        mission takes it meanwhile."""
+        assert self.loop is not None
+        while True:
+            await asyncio.sleep(IDLE_CHECK_SECONDS)
+            idle = self.idle
+            if idle is None or self.shutting_down.is_set():
+                return
+            held = [idle.get_nowait() for _ in range(idle.qsize())]
+            dead = [worker for worker in held if not worker.alive()]
+            for worker in held:
+                if worker not in dead:
+                    idle.put_nowait(worker)
+            for worker in dead:
+                log.warning("an idle mission worker died: replaced")
+                try:
+                    await self.loop.run_in_executor(None, self._replace, worker)
+                finally:
+                    idle.put_nowait(worker)  # (a failed restart: _work tries again)
 
     async def _dispatch(self) -> None:
         assert self.queue is not None and self.idle is not None

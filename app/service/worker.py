@@ -16,12 +16,13 @@ import queue as queue_module
 import socket
 import threading
 import time
+from collections.abc import Callable
 from typing import Any, Protocol
 
 import py_trees
 
 from app.executor.runner import MissionError, MissionRunner, UpdateRefused
-from app.executor.warm import unfreeze_mission, warm_up
+from app.executor.warm import unfreeze_mission
 from app.missions.spec import MissionSpec
 from app.missions.status import MissionStatus
 from app.service.messages import (
@@ -72,10 +73,20 @@ class CancelFlag(Protocol):
     def wait(self, timeout: float | None = None) -> bool: ...
 
 
+class Flag(Protocol):
+    """A flag the worker raises (its warm-up ended): shared memory, or a threading event."""
+
+    def set(self) -> None: ...
+
+
+WarmUp = Callable[[Library], object]  # a worker's warm-up (``app.executor.warm.warm_up``)
+
+
 class SharedFlag:
-    """A cancel flag in shared memory, for a pool process. Unlike a multiprocessing Event,
-    setting it never blocks: ``Event.set`` waits until its sleepers wake, so a hung (e.g.
-    stopped) worker would hang whoever cancels its mission."""
+    """A flag in shared memory, for a pool process: its cancel flag, and the flag it raises
+    once warm. Unlike a multiprocessing Event, setting it never blocks: ``Event.set`` waits
+    until its sleepers wake, so a hung (e.g. stopped) worker would hang whoever cancels its
+    mission."""
 
     def __init__(self, value: Any) -> None:
         self.value = value  # a RawValue("b") of the pool's multiprocessing context
@@ -231,17 +242,21 @@ def serve_missions(
     ws_rate: float,
     server_pid: int,
     niceness: int = 10,
-    warm: bool = True,
+    warm: WarmUp | None = None,
+    warmed: Flag | None = None,
 ) -> None:
-    """A pool process's target: run each job as it comes until None (or the server is gone)."""
+    """A pool process's target: warm up (``warm``, if any), raise ``warmed``, then run each
+    job as it comes until None (or the server is gone)."""
     threading.Thread(
         target=watch_server, args=(server_pid,), daemon=True, name="watch-server"
     ).start()
     if niceness:
         with contextlib.suppress(OSError):
             os.nice(niceness)  # the API process keeps priority: requests stay fast under load
-    if warm:
-        warm_up(library)  # kernels and motion tables loaded before the first mission comes
+    if warm is not None:
+        warm(library)  # kernels and motion tables loaded before the first mission comes
+    if warmed is not None:
+        warmed.set()  # the service counts this worker warm from now on (``/readyz``)
     while (job := jobs.get()) is not None:
         run_mission(job, library, ws_rate, queue, cancel, updates)
 

@@ -12,6 +12,7 @@ from fastapi.testclient import TestClient
 
 from app.main import create_app
 from app.settings import Settings
+from tests.service.test_readiness import wait_ready
 
 GOAL = {
     "name": "api",
@@ -311,7 +312,7 @@ def test_learning_job_cancelled_halfway(
 
 def test_health_and_metrics(client: TestClient) -> None:
     assert client.get("/livez").json() == {"status": "ok"}
-    ready = client.get("/readyz").json()
+    ready = wait_ready(client.get).json()  # once a mission worker is warm
     assert ready["status"] == "ok" and ready["primitives"] == 159
     client.post("/missions", json=GOAL)
     text = client.get("/metrics").text

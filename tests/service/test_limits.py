@@ -16,6 +16,7 @@ from sqlalchemy import text
 from app.main import create_app
 from app.service import reconcile
 from app.settings import Settings
+from tests.service.test_readiness import wait_ready
 
 GOAL = {
     "name": "limits",
@@ -120,7 +121,7 @@ def test_a_worker_stuck_in_planning_past_the_wall_clock_limit_is_stopped(tmp_pat
 
 def test_database_failure_is_503_and_readyz_false_without_leaking(tmp_path: Path) -> None:
     with app_client(tmp_path) as c:
-        assert c.get("/readyz").status_code == 200
+        assert wait_ready(c.get).status_code == 200  # once a mission worker is warm
         app = c.app
         engine = app.state.services.store.engine  # type: ignore[attr-defined]
         app.state.db_health.window = 0.5  # type: ignore[attr-defined]

@@ -14,6 +14,7 @@ from fastapi.testclient import TestClient
 
 from tests.service.test_limits import SLOW, app_client, wait_status
 from tests.service.test_pool import TERMINAL, seconds_between, worker_pid
+from tests.service.test_readiness import wait_ready
 
 ray = pytest.importorskip("ray")
 EXAMPLE = json.loads(
@@ -84,3 +85,14 @@ def test_a_lost_ray_actor_is_replaced_and_its_mission_fails_with_the_reason(
         after = wait_status(c, c.post("/missions", json=EXAMPLE).json()["id"], TERMINAL, 120)
         assert after["status"] == "succeeded", after["reason"]
         assert worker_pid(after) != pid
+
+
+def test_a_ray_actor_is_warm_when_ready_and_its_replacement_starts_cold(tmp_path: Path) -> None:
+    with app_client(tmp_path, max_running=1, executor="ray") as c:
+        ready = wait_ready(c.get)  # the pool starts once its actors have warmed up
+        assert ready.json()["workers"] == {"warm": 1, "size": 1, "needed": 1}
+        (worker,) = c.app.state.services.supervisor.workers  # type: ignore[attr-defined]
+        worker.restart()  # a new actor: its constructor (the warm-up) has not run yet
+        r = c.get("/readyz")
+        assert r.status_code == 503 and r.json()["detail"] == "workers warming up (0/1 warm)"
+        assert wait_ready(c.get).json()["workers"]["warm"] == 1

@@ -19,6 +19,7 @@ from websockets.sync.client import connect
 
 from primitives.library import bundled_library_path
 from tests.service.test_crash import wait_for
+from tests.service.test_readiness import wait_ready
 from tests.service.test_server import start_server
 
 KEY = "s3cret"
@@ -146,7 +147,8 @@ def test_auth_all_guards_reads_websocket_and_simulate(tmp_path: Path) -> None:
     )
     try:
         assert httpx.get(f"{base}/livez", timeout=10).status_code == 200  # probes stay open
-        assert httpx.get(f"{base}/readyz", timeout=10).status_code == 200
+        ready = wait_ready(lambda path: httpx.get(f"{base}{path}", timeout=10))
+        assert ready.status_code == 200
         mission_id = httpx.post(f"{base}/missions", json=GOAL, headers=AUTH, timeout=10).json()[
             "id"
         ]
