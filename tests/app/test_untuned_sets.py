@@ -1,0 +1,81 @@
+"""The second and third untuned sets (examples/untuned2, examples/untuned3) are well-formed:
+every mission parses, declares what it expects, starts clear, and an expected success is
+solvable for the body's width while an expected `unreachable` really is cut off (the same
+free-space checks as examples/hard); each set covers what its README claims. Nothing here runs
+a mission end to end: `python -m bench.missions --set examples/untuned2` does."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.missions.spec import DropoutEvent
+from tests.app import test_hard_missions as hard
+
+EXAMPLES = Path(__file__).parents[2] / "examples"
+UNTUNED2 = sorted(EXAMPLES.joinpath("untuned2").glob("*.json"))
+UNTUNED3 = sorted(EXAMPLES.joinpath("untuned3").glob("*.json"))
+EVERY = [*UNTUNED2, *UNTUNED3]
+
+
+def name(path: Path) -> str:
+    return f"{path.parent.name}/{path.stem}"
+
+
+def test_the_second_set_covers_what_it_claims() -> None:
+    specs = [hard.spec(p) for p in UNTUNED2]
+    assert 12 <= len(specs) <= 16
+    assert len({s.name for s in specs}) == len(specs)
+    assert any(s.sensors.noise >= 0.04 for s in specs)
+    assert any(
+        isinstance(e, DropoutEvent) and "joints" in e.sensors for s in specs for e in s.events
+    )
+    assert any(e.type == "deform" for s in specs for e in s.events)
+    assert any(s.order == "any" and len(s.goals) >= 7 for s in specs)
+    assert any(s.bounds.xmax - s.bounds.xmin >= 30 for s in specs)
+    unreachable = [s for s in specs if s.expect and s.expect.reason == "unreachable"]
+    assert len(unreachable) >= 2
+
+
+def test_the_third_set_covers_what_it_claims() -> None:
+    specs = [hard.spec(p) for p in UNTUNED3]
+    assert 10 <= len(specs) <= 12
+    assert len({s.name for s in specs}) == len(specs)
+    assert any(s.sensors.noise >= 0.04 for s in specs)
+    assert sum(1 for s in specs for e in s.events if e.type == "deform") == 1
+    assert any(s.order == "any" and len(s.goals) >= 3 for s in specs)
+    assert any(s.bounds.xmax - s.bounds.xmin >= 15 for s in specs)
+    unreachable = [s for s in specs if s.expect and s.expect.reason == "unreachable"]
+    assert len(unreachable) == 1
+
+
+@pytest.mark.parametrize("path", EVERY, ids=name)
+def test_parses_and_declares_an_expectation(path: Path) -> None:
+    hard.test_parses_and_declares_an_expectation(path)
+
+
+@pytest.mark.parametrize("path", EVERY, ids=name)
+def test_start_footprint_is_clear(path: Path) -> None:
+    hard.test_start_footprint_is_clear(path)
+
+
+@pytest.mark.parametrize("path", EVERY, ids=name)
+def test_expected_outcome_matches_the_free_space(path: Path) -> None:
+    hard.test_expected_outcome_matches_the_free_space(path)
+
+
+@pytest.mark.parametrize("path", UNTUNED3, ids=name)
+def test_an_expected_success_has_a_goal_near_a_hidden_obstacle(path: Path) -> None:
+    """What the third set is for: goals 0.15-0.25 m from something the robot cannot see at the
+    start."""
+    s = hard.spec(path)
+    assert s.expect is not None
+    if s.expect.status != "succeeded":
+        return
+    w = hard.world(s)
+    hidden = [o for spec_o, o in zip(s.obstacles, w.obstacles, strict=True) if not spec_o.known]
+    goals = np.array([[g.x, g.y] for g in s.goals])
+    gaps = np.min([o.segment_clearance(goals, goals) for o in hidden], axis=0)
+    assert float(gaps.min()) <= 0.25 + 1e-9, gaps
