@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from domain.grid_clearance import bilinear_at, grids_of
+from domain.lattice_search import kernel_table, state_inputs
 from domain.lattice_task import LatticeTask
 from domain.occupancy_kernel import AVAILABLE, _jit
 from sim.robot import Array
@@ -32,19 +33,15 @@ def goal_entered(task: LatticeTask) -> bool:
     near = task.near_states()
     if near.size == 0:
         return False
-    if task.start_number in set(near.tolist()):
+    if task.start_number in near:
         return True
     grid, table = task.grid, task.table
     K, nx, ny = grid.settings.orientations, grid.nx, grid.ny
     start_bits = np.flatnonzero(task.free_mask(task.start_key)).astype(np.int64)
     grids = grids_of(task.clearance)
     if AVAILABLE and grids is not None:
-        from domain.lattice_search import kernel_table  # (it imports the task module too)
-
         kt = kernel_table(table, task.margin)
-        b = grid.bounds
-        gf = np.array([b.xmin, b.ymin, grid.settings.resolution, kt.open_need])
-        at_centres = task.at_centres if task.at_centres is not None else np.zeros(0)
+        gf, at_centres = state_inputs(task, kt)
         return bool(
             _entered(
                 near, task.start_number, start_bits, np.array([nx, ny, K], dtype=np.int64),

@@ -206,6 +206,16 @@ def _heuristic_inputs(task: LatticeTask, heuristic: Any) -> tuple[int, Array, tu
     return kernel.REJOIN, np.array([turn_step, heuristic.step, heuristic.turn]), arrays
 
 
+def state_inputs(task: LatticeTask, kt: KernelTable) -> tuple[Array, Array]:
+    """What the kernels read to place a state and shortcut open space: ``gf`` (grid xmin,
+    ymin, resolution, open clearance + margin) and the clearance at the cell centres (empty
+    when the task has none: the kernels interpolate)."""
+    b = task.grid.bounds
+    gf = np.array([b.xmin, b.ymin, task.grid.settings.resolution, kt.open_need])
+    at_centres = task.at_centres if task.at_centres is not None else np.zeros(0)
+    return gf, at_centres
+
+
 def search(task: LatticeTask, heuristic: Any) -> list[Operator] | None:
     """pyperplan's ``greedy_best_first_search(task, heuristic)`` on the lattice, compiled (see
     the module's docstring; ``applies`` says when it can run)."""
@@ -218,9 +228,7 @@ def search(task: LatticeTask, heuristic: Any) -> list[Operator] | None:
     window = task.window or (slice(0, grid.nx), slice(0, grid.ny))
     (wi, wj), K = window, grid.settings.orientations
     dims = np.array([grid.nx, grid.ny, K, wi.start, wj.start, wi.stop, wj.stop], dtype=np.int64)
-    b = grid.bounds
-    gf = np.array([b.xmin, b.ymin, grid.settings.resolution, kt.open_need])
-    at_centres = task.at_centres if task.at_centres is not None else np.zeros(0)
+    gf, at_centres = state_inputs(task, kt)
     world = _world_inputs(grids)
     kind, hf, (base, way, narrow, window_dist, ks) = _heuristic_inputs(task, heuristic)
     cache = task.cache
