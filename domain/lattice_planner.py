@@ -47,6 +47,8 @@ SEARCH_AGAIN = 40_000  # expansions of the search that follows when nothing got 
 # time limit stays a safety net; a budget, so a faster machine does not plan differently)
 MOTION_CACHES = 12  # motion caches kept (one per shape and clearance family); the least
 # recently used goes first (each holds up to ``lattice_cache.COMPILED_LIMIT`` states)
+REACH_KEPT = 8  # reachability answers kept (the latest per shape and clearance family; each
+# holds one label per configuration: 2.6 M on a 10 m arena, ~13 MB)
 
 
 @dataclass(frozen=True)
@@ -76,7 +78,9 @@ class LatticePlanner:
         self.search, self.heuristic, self.time_limit = search, heuristic, time_limit
         self._maps: dict[tuple[Any, ...], Array] = {}
         # version and shape -> (shape and family, answers)
-        self._reach: dict[tuple[Any, ...], tuple[tuple[Any, ...], Reachability]] = {}
+        # The latest world version's reachability per shape and family (the next version's
+        # is updated from it), the least recently used going past ``REACH_KEPT``.
+        self._reach: dict[tuple[Any, ...], tuple[Any, Reachability]] = {}
         self._motions: dict[tuple[Any, ...], MotionCache] = {}
         self.states = StatePool()  # search states shared by every search on this grid
         self._centres: tuple[Any, Array] | None = None
@@ -153,20 +157,17 @@ class LatticePlanner:
         """The free configuration space's components for this world version and shape; the
         answers for an earlier version of the same ``family`` of clearance (see ``plan``) are
         updated where the clearance changed rather than made afresh."""
-        shape = (table.shape, tuple(np.round(table.joints, 3)))
-        key = (version, *shape)
-        if key not in self._reach:
-            earlier = next(
-                (r for of, r in reversed(self._reach.values()) if of == (*shape, family)), None
-            )
-            if len(self._reach) > 4:
-                self._reach.clear()
+        key = (table.shape, tuple(np.round(table.joints, 3)), family)
+        latest = self._reach.pop(key, None)
+        if latest is None or latest[0] != version:
+            if latest is None and len(self._reach) >= REACH_KEPT:  # the least recently used
+                del self._reach[next(iter(self._reach))]
             at_centres = self.centre_clearance(clearance, version)
-            self._reach[key] = (
-                (*shape, family),
-                Reachability(self.grid, table, at_centres, self.settings.margin, earlier),
-            )
-        return self._reach[key][1]
+            earlier = latest[1] if latest is not None else None
+            margin = self.settings.margin
+            latest = (version, Reachability(self.grid, table, at_centres, margin, earlier))
+        self._reach[key] = latest  # (the newest last)
+        return latest[1]
 
     # -- planning -----------------------------------------------------------------------------
     def plan(
@@ -182,6 +183,7 @@ class LatticePlanner:
         previous: Sequence[LatticeAction] = (),
         reachable: bool = False,
         family: Hashable = None,
+        doubt: bool = False,
     ) -> LatticePlan:
         """A plan from ``pose`` through ``goals`` (in the given order, or the best found).
 
@@ -194,7 +196,10 @@ class LatticePlanner:
         ``family`` names the kind of clearance this is (e.g. a tier of the navigation
         strategy's): which motions are free is kept between replans per shape and family, so
         that plans alternating between kinds of clearance do not make each other's verdicts
-        stale (see ``motion_cache``).
+        stale (see ``motion_cache``). ``doubt``: the first leg's goal was unreachable at the
+        last replan against this family, so the reachability test is asked before searching
+        rather than after: when it says no, no search can reach the goal either, and the plan
+        is the same ``unreachable`` the search would have ended in.
         """
         started = time.monotonic()
         deadline = started + self.time_limit
@@ -236,6 +241,14 @@ class LatticePlanner:
             if not math.isfinite(maps[g.index][si, sj]):
                 return LatticePlan("unreachable", self._enclosed(table, g, pose, static))
         order = list(goals) if ordered else order_goals(self.grid, goals, maps, (si, sj))
+        if (
+            doubt
+            and not reachable
+            and not self.reachability(table, clearance, version, family).reaches(
+                start, (order[0].x, order[0].y), leg_reach(order[0])
+            )
+        ):
+            return self._unreachable(table, order[0], started)
         plan = LatticePlan("solved", order=[g.index for g in order])
         here = start
         for leg, goal in enumerate(order):
@@ -261,10 +274,7 @@ class LatticePlanner:
                     )
                 ):
                     plan.status, plan.actions = "unreachable", []
-                    plan.reason = (
-                        f"unreachable: goal {goal.index} at ({goal.x:g}, {goal.y:g}): no "
-                        f"collision-free motion of the {table.shape} body brings its head there"
-                    )
+                    plan.reason = self._unreachable(table, goal, started).reason
                     break
                 plan.reachable = plan.reachable or (leg == 0 and not known)
             if result.status == "timeout" and time.monotonic() < deadline:
@@ -414,6 +424,16 @@ class LatticePlanner:
             known = self.distances(table, static[0], ("static", static[1]), goal)
             by = "known obstacles" if not math.isfinite(known[si, sj]) else "sensed obstacles"
         return f"unreachable: goal {goal.index} at ({goal.x:g}, {goal.y:g}) enclosed by {by}"
+
+    def _unreachable(self, table: MotionTable, goal: LegGoal, started: float) -> LatticePlan:
+        """The plan when no motion of the body can bring its head to ``goal``."""
+        done = LatticePlan(
+            "unreachable",
+            f"unreachable: goal {goal.index} at ({goal.x:g}, {goal.y:g}): no collision-free "
+            f"motion of the {table.shape} body brings its head there",
+        )
+        done.search_ms = (time.monotonic() - started) * 1e3
+        return done
 
     def _why(self, result: PlanResult, table: MotionTable, goal: LegGoal) -> str:
         if result.status == "unsolvable":

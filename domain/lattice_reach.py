@@ -92,31 +92,24 @@ def free_configurations(
     ``previous``: the clearance at the centres and the answer for an earlier world model of
     the same lattice, body and margin; only the cells within the body's reach of a cell whose
     clearance changed are compared again (a replan after sensing changes little)."""
-    nx, ny, r = grid.nx, grid.ny, grid.settings.resolution
+    nx, ny = grid.nx, grid.ny
     clear = at_centres.reshape(nx, ny)
-    # Padded with -inf: a body point off the grid is outside the arena.
-    pad = max(1, math.ceil(table.geometry.body_length / r) + 2)
-    padded = np.full((nx + 2 * pad, ny + 2 * pad), -np.inf)
-    padded[pad : pad + nx, pad : pad + ny] = clear
-    shifts, thresholds, counts = rows if rows is not None else body_rows(grid, table, margin)
+    pad = body_pad(grid, table)
+    rows = rows if rows is not None else body_rows(grid, table, margin)
+    shifts, thresholds, counts = rows
     box = (slice(0, nx), slice(0, ny))
     if previous is not None and previous[1].shape == (grid.settings.orientations, nx, ny):
-        changed = clear != previous[0].reshape(nx, ny)
         free = previous[1].copy()
-        rows_hit, cols_hit = (
-            np.flatnonzero(changed.any(axis=1)),
-            np.flatnonzero(changed.any(axis=0)),
-        )
-        if rows_hit.size == 0:
+        changed = changed_box(clear, previous[0].reshape(nx, ny), pad, float(thresholds.max()))
+        if changed is None:
             return free
-        # A configuration reads cells no further than ``pad`` from its own.
-        box = (
-            slice(max(0, int(rows_hit[0]) - pad), min(nx, int(rows_hit[-1]) + pad + 1)),
-            slice(max(0, int(cols_hit[0]) - pad), min(ny, int(cols_hit[-1]) + pad + 1)),
-        )
+        box = changed
         free[:, box[0], box[1]] = True
     else:
         free = np.ones((grid.settings.orientations, nx, ny), dtype=bool)
+    # Padded with -inf: a body point off the grid is outside the arena.
+    padded = np.full((nx + 2 * pad, ny + 2 * pad), -np.inf)
+    padded[pad : pad + nx, pad : pad + ny] = clear
     (i0, i1), (j0, j1) = (box[0].start, box[0].stop), (box[1].start, box[1].stop)
     for k, n in enumerate(counts.tolist()):
         part = free[k, i0:i1, j0:j1]
@@ -128,6 +121,97 @@ def free_configurations(
     return free
 
 
+def body_pad(grid: LatticeGrid, table: MotionTable) -> int:
+    """Cells round a configuration's own that its resting body's points may read."""
+    return max(1, math.ceil(table.geometry.body_length / grid.settings.resolution) + 2)
+
+
+def changed_box(
+    clear: Array, earlier: Array, pad: int, cap: float = math.inf
+) -> tuple[slice, slice] | None:
+    """The box of cells whose configurations may differ between two clearances at the cell
+    centres (``[nx, ny]``): the changed cells' bounding box grown by ``pad`` (``None``: no
+    cell changed). Clearance above ``cap`` (the most any body point needs) decides nothing:
+    a change above it is no change."""
+    changed = np.minimum(clear, cap) != np.minimum(earlier, cap)
+    rows, cols = np.flatnonzero(changed.any(axis=1)), np.flatnonzero(changed.any(axis=0))
+    if rows.size == 0:
+        return None
+    nx, ny = clear.shape
+    return (
+        slice(max(0, int(rows[0]) - pad), min(nx, int(rows[-1]) + pad + 1)),
+        slice(max(0, int(cols[0]) - pad), min(ny, int(cols[-1]) + pad + 1)),
+    )
+
+
+class Components(NamedTuple):
+    """The free configurations ``[K, nx, ny]`` and their components: ``component[labels]``."""
+
+    free: NDArray[np.bool_]
+    labels: NDArray[np.int32]  # [K, nx, ny] a node number per configuration
+    component: NDArray[np.int32]  # node number -> component
+    exact: bool  # False: some components may be joined that no longer connect
+
+
+# The 8 neighbouring cells at one orientation, and one orientation step in place.
+NEIGHBOURS = np.zeros((3, 3, 3), dtype=bool)
+NEIGHBOURS[1] = True
+NEIGHBOURS[0, 1, 1] = NEIGHBOURS[2, 1, 1] = True
+
+
+def exact_components(free: NDArray[np.bool_]) -> Components:
+    """Every free configuration's component (``scipy.ndimage.label``; orientation wraps)."""
+    labels, count = ndimage.label(free, structure=NEIGHBOURS)
+    return Components(free, labels, _joined(count + 1, [_wrapped(free, labels)]), True)
+
+
+def carried_over(old: Components, free: NDArray[np.bool_], box: tuple[slice, slice]) -> Components:
+    """Components for ``free``, which equals ``old.free`` outside ``box`` (``old`` is taken
+    over: its labels are written): the box and a
+    ring of one cell round it labelled afresh, each joined with the old components its
+    ring (unchanged) configurations had; elsewhere the old components. Every path of free
+    configurations stays within one component (a step leaving the box ends in the ring or
+    beyond it, both old, where the old labels join it), so a start and a goal apart here
+    are apart; old components cut apart since stay joined."""
+    nx, ny = free.shape[1:]
+    ring = (
+        slice(max(0, box[0].start - 1), min(nx, box[0].stop + 1)),
+        slice(max(0, box[1].start - 1), min(ny, box[1].stop + 1)),
+    )
+    inner = free[:, ring[0], ring[1]]
+    fresh, count = ndimage.label(inner, structure=NEIGHBOURS)
+    # Nodes: the old labels, then one per old component, then the fresh labels.
+    labels, first = old.labels, len(old.component)
+    nodes = first + int(old.component.max()) + 1
+    both = inner & old.free[:, ring[0], ring[1]]
+    a = labels[:, ring[0], ring[1]][both]
+    fresh = np.where(inner, fresh + nodes, 0).astype(labels.dtype)
+    labels[:, ring[0], ring[1]] = fresh  # (in place: ``old`` is taken over)
+    ids = np.arange(first, dtype=labels.dtype)
+    joins = [(ids, first + old.component), (a, fresh[both]), _wrapped(inner, fresh)]
+    return Components(free, labels, _joined(nodes + count + 1, joins), False)
+
+
+def _wrapped(
+    free: NDArray[np.bool_], labels: NDArray[np.int32]
+) -> tuple[NDArray[np.int32], NDArray[np.int32]]:
+    """Orientation wraps round: the labels that meet across bins K-1 and 0."""
+    both = free[0] & free[-1]
+    return labels[0][both], labels[-1][both]
+
+
+def _joined(
+    nodes: int, joins: list[tuple[NDArray[np.int32], NDArray[np.int32]]]
+) -> NDArray[np.int32]:
+    """Node number -> component, for ``nodes`` nodes joined pairwise by ``joins``."""
+    ids = np.arange(nodes)
+    a = np.concatenate([ids, *(x for x, _ in joins)])
+    b = np.concatenate([ids, *(y for _, y in joins)])
+    graph = coo_matrix((np.ones(a.size), (a, b)), shape=(nodes, nodes))
+    component: NDArray[np.int32] = connected_components(graph, directed=False)[1]
+    return component.astype(np.int32)
+
+
 FLOOD_BUDGET = 20_000  # configurations a flood meets before the labelling answers instead
 
 
@@ -135,8 +219,9 @@ class Reachability:
     """Answers "can the body get from this start to that goal at all?" for one lattice's free
     configurations: by the compiled flood fill from both ends (stopping when they meet) when
     kernels are available and it answers within ``flood_budget`` configurations, else by
-    labelling every component once (``scipy.ndimage.label``, kept for the next question) and
-    comparing."""
+    components: the earlier world's carried over where a few cells changed, when they keep
+    start and goal apart, else every component labelled (``scipy.ndimage.label``); either
+    is kept for the next question and the next world's."""
 
     def __init__(
         self,
@@ -150,6 +235,10 @@ class Reachability:
         margin, whose free configurations are updated where the clearance changed instead
         of made afresh (see ``free_configurations``)."""
         self.grid, self.table, self.margin = grid, table, margin
+        self.last: bool | None = None  # the last answer
+        # The earlier world kept start and goal apart: likely this one too, which the
+        # components carried over tell sooner than a flood that runs out of its budget.
+        self._apart = previous is not None and previous.last is False
         # Only labelled answers help, and holding one that is not would chain every version.
         if previous is not None and not previous.labelled:
             previous = previous._previous
@@ -161,7 +250,7 @@ class Reachability:
         self.at_centres = at_centres
         self.clear = np.ascontiguousarray(at_centres.reshape(grid.nx, grid.ny), dtype=float)
         self.rows = body_rows(grid, table, margin)
-        self._labels: tuple[NDArray[np.bool_], NDArray[np.int32], NDArray[np.int32]] | None = None
+        self._labels: Components | None = None
         # Configurations the flood may meet before it leaves the question to the labelling
         # (two large components: a flood costs more per configuration than the labelling).
         self.flood_budget = FLOOD_BUDGET
@@ -178,13 +267,33 @@ class Reachability:
         from ``start`` (``True`` when one may, or when no configuration at the start passes
         the test: a robot touching something). ``compiled``: force the flood fill (True) or
         the labelling (False); by default the flood fill when kernels are available, within
-        ``flood_budget`` configurations (default ``self.flood_budget``)."""
+        ``flood_budget`` configurations (default ``self.flood_budget``), then the components
+        carried over from the earlier world's (see ``carried_over``), then labelling."""
         starts = self._starts(start)
         if starts.size == 0:
             return True
         grid = self.grid
         limit = reach + grid.settings.resolution * math.sqrt(0.5)
+        self.last = self._reaches(starts, goal, limit, compiled, flood_budget)
+        return self.last
+
+    def _reaches(
+        self,
+        starts: NDArray[np.int64],
+        goal: tuple[float, float],
+        limit: float,
+        compiled: bool | None,
+        flood_budget: int | None,
+    ) -> bool:
+        if self._labels is not None and self._labels.exact:
+            return self._answer(self._labels, starts, goal, limit)
+        # The last world's components carried over (a few cells changed) answer a ``False``
+        # soundly: the usual one is two large components that do not connect, which a flood
+        # gives back when it runs out of its budget. Asked first when that is likely.
+        if self._apart and self._apart_carried(starts, goal, limit):
+            return False
         if compiled if compiled is not None else reach_kernel.AVAILABLE:
+            grid = self.grid
             centres = grid.centres.reshape(grid.nx, grid.ny, 2)
             found = reach_kernel.flood_reaches(
                 self.clear,
@@ -199,7 +308,18 @@ class Reachability:
             )
             if found is not None:
                 return found
+        if not self._apart and self._apart_carried(starts, goal, limit):
+            return False
         return self._labelled_reaches(starts, goal, limit)
+
+    def _apart_carried(
+        self, starts: NDArray[np.int64], goal: tuple[float, float], limit: float
+    ) -> bool:
+        """Whether the components carried over from the earlier world (or exact ones, if
+        nothing changed) keep start and goal apart."""
+        if self._labels is None:
+            self._labels = self._updated()
+        return self._labels is not None and not self._answer(self._labels, starts, goal, limit)
 
     @property
     def labelled(self) -> bool:
@@ -209,10 +329,20 @@ class Reachability:
     def _labelled_reaches(
         self, starts: NDArray[np.int64], goal: tuple[float, float], limit: float
     ) -> bool:
-        free, labels, component = self._labelled()
+        return self._answer(self._labelled(), starts, goal, limit)
+
+    def _answer(
+        self,
+        known: Components,
+        starts: NDArray[np.int64],
+        goal: tuple[float, float],
+        limit: float,
+    ) -> bool:
+        """Whether a configuration with the head on the goal shares a component with one of
+        ``starts`` in ``known``."""
         grid = self.grid
         bins, cells = np.divmod(starts, grid.nx * grid.ny)
-        mine = np.unique(component[labels[bins, *np.divmod(cells, grid.ny)]])
+        mine = np.unique(known.component[known.labels[bins, *np.divmod(cells, grid.ny)]])
         centres = grid.centres.reshape(grid.nx, grid.ny, 2)
         xs, ys = centres[:, 0, 0], centres[0, :, 1]
         for k, (hx, hy) in enumerate(self.table.heads):
@@ -221,35 +351,49 @@ class Reachability:
             j0, j1 = np.searchsorted(ys, [goal[1] - hy - limit, goal[1] - hy + limit])
             box = (slice(max(0, i0 - 1), i1 + 1), slice(max(0, j0 - 1), j1 + 1))
             near = np.hypot(centres[*box, 0] + hx - goal[0], centres[*box, 1] + hy - goal[1])
-            mask = (near <= limit) & free[k][box]
-            if np.any(np.isin(component[labels[k][box][mask]], mine)):
+            mask = (near <= limit) & known.free[k][box]
+            if np.any(np.isin(known.component[known.labels[k][box][mask]], mine)):
                 return True
         return False
 
-    def _labelled(self) -> tuple[NDArray[np.bool_], NDArray[np.int32], NDArray[np.int32]]:
-        """Every free configuration's component (built on the first question)."""
-        if self._labels is None:
-            earlier, self._previous = self._previous, None
-            known = None
-            if earlier is not None and earlier._labels is not None:
-                known = (earlier.at_centres, earlier._labels[0])
-            free = free_configurations(
-                self.grid, self.table, self.at_centres, self.margin, self.rows, known
-            )
-            structure = np.zeros((3, 3, 3), dtype=bool)
-            structure[1] = True  # the 8 neighbouring cells at one orientation ...
-            structure[0, 1, 1] = structure[2, 1, 1] = True  # ... and one orientation step in place
-            labels, count = ndimage.label(free, structure=structure)
-            # Orientation wraps round: join the components that meet across bins K-1 and 0.
-            both = free[0] & free[-1]
-            a, b = labels[0][both], labels[-1][both]
-            ids = np.arange(count + 1)
-            joined = coo_matrix(
-                (np.ones(a.size + ids.size), (np.r_[a, ids], np.r_[b, ids])),
-                shape=(count + 1, count + 1),
-            )
-            self._labels = (free, labels, connected_components(joined, directed=False)[1])
+    def _labelled(self) -> Components:
+        """Every free configuration's component, exactly (built on the first question that
+        needs it, from the free configurations of an update if one was made)."""
+        if self._labels is None or not self._labels.exact:
+            free = self._labels.free if self._labels is not None else self._free_configurations()
+            self._labels = exact_components(free)
         return self._labels
+
+    def _free_configurations(self) -> NDArray[np.bool_]:
+        earlier, self._previous = self._previous, None
+        known = None
+        if earlier is not None and earlier._labels is not None:
+            known = (earlier.at_centres, earlier._labels.free)
+        return free_configurations(
+            self.grid, self.table, self.at_centres, self.margin, self.rows, known
+        )
+
+    def _updated(self) -> Components | None:
+        """The earlier world's components carried over to this one (``None`` without one):
+        the cells whose configurations may have changed are labelled afresh and joined with
+        the earlier components they touch, which are kept elsewhere. A component may so
+        come out joined with one it no longer connects with (something sensed since cut
+        them apart), never apart from one it connects with: a ``False`` from these is sound,
+        a ``True`` is asked again of the exact labelling."""
+        earlier = self._previous
+        if earlier is None or earlier._labels is None:
+            return None
+        old = earlier._labels
+        cap = float(self.rows.thresholds.max())
+        box = changed_box(self.clear, earlier.clear, body_pad(self.grid, self.table), cap)
+        if box is None:
+            self._previous = None
+            return old  # nothing changed
+        free = self._free_configurations()
+        # Taken over, not copied (a large array): an earlier world's question is not asked
+        # again once a later one's is; if it were, it would be answered afresh.
+        earlier._labels = None
+        return carried_over(old, free, box)
 
     def _starts(self, start: Key) -> NDArray[np.int64]:
         """The free configurations at ``start`` or, when the snapped state itself fails the

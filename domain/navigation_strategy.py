@@ -94,6 +94,9 @@ class NavigationStrategy:
         self.backoff: list[Primitive] = []
         self.recoveries = 0
         self.repairs = 0  # plans repaired in a row since the last full plan
+        # (shape, tier) whose plan was unreachable at the last replan that tried it: the next
+        # asks the reachability test before searching (a corridor closed on a guess stays so)
+        self._closed: set[tuple[str, Tier]] = set()
 
     # -- the lattice of the current body --------------------------------------------------------
     def table_for(self, shape: str, joints: tuple[float, float, float]) -> MotionTable | None:
@@ -192,8 +195,12 @@ class NavigationStrategy:
         plan = LatticePlan("unsolvable")
         goals = tuple((g.x, g.y) for g in s.goals)
         reachable = False  # in the first tier: so in every later one, which keeps less
-        for n, tier in enumerate(tiers(world.any_suspected())):
+        order = tiers(world.any_suspected())
+        for n, tier in enumerate(order):
             self.clearance = tier_clearance(world, tier, goals)
+            # (not the last tier: its plan is the answer, and only a search tells an
+            # exhausted lattice, ``unsolvable``, from ``unreachable``)
+            closed = (table.shape, tier)
             plan = self.planner.plan(
                 table,
                 self.clearance,
@@ -206,7 +213,12 @@ class NavigationStrategy:
                 previous=remaining,
                 reachable=reachable,
                 family=tier,
+                doubt=closed in self._closed and n < len(order) - 1,
             )
+            if plan.status == "unreachable":
+                self._closed.add(closed)
+            else:
+                self._closed.discard(closed)
             reachable = reachable or (n == 0 and plan.reachable)
             if plan.status not in ("unreachable", "unsolvable"):
                 break  # a timeout turns to sense around instead (see ``replan``)

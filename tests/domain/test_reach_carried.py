@@ -1,0 +1,131 @@
+"""Reachability carried over from the last world: a ``False`` only where the exact labelling
+says so, the same answers as made afresh, and a planner that asks it first where a goal was
+unreachable at the last replan ends in the same plan without a search."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from domain.goal_order import LegGoal
+from domain.lattice import LatticeGrid, LatticeSettings, motion_table
+from domain.lattice_planner import PARTIAL_AFTER, LatticePlanner
+from domain.lattice_reach import Reachability, carried_over, exact_components
+from domain.pyperplan_adapter import PlanResult
+from domain.worldmodel import WorldModel
+from primitives.library import load_bundled
+from sim.obstacles import Circle
+from sim.world import Bounds
+
+SETTINGS = LatticeSettings()
+TABLE = motion_table(load_bundled(), "straight", (0.0, 0.0, 0.0), SETTINGS)
+BOUNDS = Bounds(-1.5, 1.5, -1.5, 1.5)
+PEN = (0.9, 0.9)
+
+
+def clearance(grid: LatticeGrid, discs: list[tuple[float, float, float]]) -> np.ndarray:
+    """Metres from each cell centre to the nearest disc or wall."""
+    c, b = grid.centres, grid.bounds
+    out = np.minimum.reduce(
+        [c[:, 0] - b.xmin, b.xmax - c[:, 0], c[:, 1] - b.ymin, b.ymax - c[:, 1]]
+    )
+    for x, y, r in discs:
+        out = np.minimum(out, np.hypot(c[:, 0] - x, c[:, 1] - y) - r)
+    return out
+
+
+def pen(gap: int = 0, n: int = 40) -> list[tuple[float, float, float]]:
+    """Small discs on a circle of 0.5 m round ``PEN``, less ``gap`` of them on the side of
+    the arena's centre (a way in)."""
+    a = np.linspace(0, 2 * np.pi, n, endpoint=False)
+    a = np.r_[a[: n // 2], a[n // 2 + gap :]]
+    return [(PEN[0] + 0.5 * np.cos(t), PEN[1] + 0.5 * np.sin(t), 0.06) for t in a]
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_carried_components_never_part_what_connects(seed: int) -> None:
+    """Free configurations changed inside a box: every exact component of the new ones lies
+    within one carried-over component (apart there means apart)."""
+    rng = np.random.default_rng(seed)
+    K, nx, ny = 4, 24, 24
+    before = rng.uniform(size=(K, nx, ny)) < 0.3
+    old = exact_components(before)
+    after = before.copy()
+    i0, j0 = rng.integers(0, 16, 2)
+    box = (slice(int(i0), int(i0) + 6), slice(int(j0), int(j0) + 7))
+    after[:, box[0], box[1]] = rng.uniform(size=(K, 6, 7)) < 0.3  # some cut, some joined
+    carried = carried_over(old, after, box)
+    exact = exact_components(after)
+    assert not carried.exact
+    mapped = carried.component[carried.labels][after]
+    truth = exact.component[exact.labels][after]
+    for component in np.unique(truth):
+        assert np.unique(mapped[truth == component]).size == 1, component
+    # And it is not merely everything in one: something stays apart.
+    assert np.unique(mapped).size > 1
+
+
+def test_a_chain_of_worlds_answers_as_each_made_afresh() -> None:
+    """A pen closed, opened, closed again (its components cut apart since: carried over
+    they stay joined, so the exact labelling answers), then a disc sensed elsewhere (a
+    ``False`` the carried-over components give alone)."""
+    assert TABLE is not None
+    grid = LatticeGrid(BOUNDS, SETTINGS)
+    rng = np.random.default_rng(7)
+    elsewhere = [(0.9, -0.9, 0.15)]
+    worlds = [pen(), pen(gap=8), pen(), [*pen(), *elsewhere], [*pen(), (0.9, -0.9, 0.2)]]
+    chained: Reachability | None = None
+    answers, carried_false = [], 0
+    for discs in worlds:
+        at = clearance(grid, discs)
+        chained = Reachability(grid, TABLE, at, margin=0.03, previous=chained)
+        fresh = Reachability(grid, TABLE, at, margin=0.03)
+        outside = (18, 18, 0)  # (-0.6, -0.6), heading along x
+        for goal in [PEN, (-1.1, 1.1), tuple(rng.uniform(-1.3, 1.3, 2))]:
+            got = chained.reaches(outside, goal, 0.08, compiled=False)  # (no flood)
+            assert got == fresh.reaches(outside, goal, 0.08, compiled=False), (discs, goal)
+            answers.append(got)
+            labels = chained._labels
+            carried_false += bool(not got and labels is not None and not labels.exact)
+    assert answers[0] is False and answers[3] is True  # closed, then open
+    assert carried_false > 0  # carried-over components gave a ``False`` of their own
+
+
+def test_a_doubted_goal_is_found_unreachable_before_any_search(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """``doubt``: the reachability test first; when it says no, the plan is the same
+    ``unreachable`` a search and the test after it end in, without the search. A goal it
+    finds reachable is planned as without ``doubt``."""
+    assert TABLE is not None
+    world = WorldModel(BOUNDS, [Circle(0.0, 0.0, 0.3)])
+    legs = [LegGoal(0, 1.1, 1.1, 0.1)]
+    searched: list[int] = []
+
+    def plan(doubt: bool, apart: bool):  # type: ignore[no-untyped-def]
+        p = LatticePlanner(BOUNDS, SETTINGS)
+        search = p._search
+
+        def counted(task, distances):  # type: ignore[no-untyped-def]
+            searched.append(task.budget)
+            if apart:  # the search cannot get there (nor any: see the test below)
+                return PlanResult("timeout", [], 1.0, task.budget, "search timeout")
+            return search(task, distances)
+
+        with monkeypatch.context() as m:
+            m.setattr(p, "_search", counted)
+            if apart:  # as a pen sensed round the goal would
+                m.setattr(Reachability, "reaches", lambda *a, **k: False)
+            searched.clear()
+            return p.plan(
+                TABLE, world.clearance_at, world.version, (-1.1, -1.1, 0.0), legs, True, doubt=doubt
+            )
+
+    doubted = plan(True, apart=True)
+    assert doubted.status == "unreachable" and searched == []  # no search when doubted
+    searched_out = plan(False, apart=True)
+    assert searched_out.status == "unreachable" and searched == [PARTIAL_AFTER]
+    assert doubted.reason == searched_out.reason
+    first, again = plan(False, apart=False), plan(True, apart=False)
+    assert first.solved and again.solved
+    assert [a.name for a in again.actions] == [a.name for a in first.actions]
