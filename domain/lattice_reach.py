@@ -165,6 +165,9 @@ def exact_components(free: NDArray[np.bool_]) -> Components:
     return Components(free, labels, _joined(count + 1, [_wrapped(free, labels)]), True)
 
 
+RENUMBER_AFTER = 1 << 20  # nodes of carried-over components before they are numbered afresh
+
+
 def carried_over(old: Components, free: NDArray[np.bool_], box: tuple[slice, slice]) -> Components:
     """Components for ``free``, which equals ``old.free`` outside ``box`` (``old`` is taken
     over: its labels are written): the box and a
@@ -178,6 +181,10 @@ def carried_over(old: Components, free: NDArray[np.bool_], box: tuple[slice, sli
         slice(max(0, box[0].start - 1), min(nx, box[0].stop + 1)),
         slice(max(0, box[1].start - 1), min(ny, box[1].stop + 1)),
     )
+    if len(old.component) > RENUMBER_AFTER:  # each carry adds nodes: number them afresh
+        renumbered = old.component[old.labels]
+        identity = np.arange(int(old.component.max()) + 1, dtype=np.int32)
+        old = Components(old.free, renumbered, identity, old.exact)
     inner = free[:, ring[0], ring[1]]
     fresh, count = ndimage.label(inner, structure=NEIGHBOURS)
     # Nodes: the old labels, then one per old component, then the fresh labels.

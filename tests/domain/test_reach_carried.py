@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from domain import lattice_reach
 from domain.goal_order import LegGoal
 from domain.lattice import LatticeGrid, LatticeSettings, motion_table
 from domain.lattice_planner import PARTIAL_AFTER, LatticePlanner
@@ -43,9 +44,15 @@ def pen(gap: int = 0, n: int = 40) -> list[tuple[float, float, float]]:
 
 
 @pytest.mark.parametrize("seed", range(5))
-def test_carried_components_never_part_what_connects(seed: int) -> None:
+@pytest.mark.parametrize("renumbered", [False, True])
+def test_carried_components_never_part_what_connects(
+    seed: int, renumbered: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """Free configurations changed inside a box: every exact component of the new ones lies
-    within one carried-over component (apart there means apart)."""
+    within one carried-over component (apart there means apart); also when the earlier
+    nodes are first numbered afresh (after many carries)."""
+    if renumbered:
+        monkeypatch.setattr(lattice_reach, "RENUMBER_AFTER", 0)
     rng = np.random.default_rng(seed)
     K, nx, ny = 4, 24, 24
     before = rng.uniform(size=(K, nx, ny)) < 0.3
