@@ -109,7 +109,7 @@ def test_a_doubted_goal_is_found_unreachable_before_any_search(
     legs = [LegGoal(0, 1.1, 1.1, 0.1)]
     searched: list[int] = []
 
-    def plan(doubt: bool, apart: bool):  # type: ignore[no-untyped-def]
+    def plan(doubt: bool, apart: bool, pose=(-1.1, -1.1, 0.0)):  # type: ignore[no-untyped-def]
         p = LatticePlanner(BOUNDS, SETTINGS)
         search = p._search
 
@@ -124,15 +124,17 @@ def test_a_doubted_goal_is_found_unreachable_before_any_search(
             if apart:  # as a pen sensed round the goal would
                 m.setattr(Reachability, "reaches", lambda *a, **k: False)
             searched.clear()
-            return p.plan(
-                TABLE, world.clearance_at, world.version, (-1.1, -1.1, 0.0), legs, True, doubt=doubt
-            )
+            return p.plan(TABLE, world.clearance_at, world.version, pose, legs, True, doubt=doubt)
 
     doubted = plan(True, apart=True)
     assert doubted.status == "unreachable" and searched == []  # no search when doubted
     searched_out = plan(False, apart=True)
     assert searched_out.status == "unreachable" and searched == [PARTIAL_AFTER]
     assert doubted.reason == searched_out.reason
+    # Within one motion's reach (a plan of one motion keeps only the start's allowance, which
+    # the test does not grant): searched first all the same.
+    near = plan(True, apart=True, pose=(0.6, 1.1, 0.0))
+    assert near.status == "unreachable" and searched == [PARTIAL_AFTER]
     first, again = plan(False, apart=False), plan(True, apart=False)
     assert first.solved and again.solved
     assert [a.name for a in again.actions] == [a.name for a in first.actions]
