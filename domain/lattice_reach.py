@@ -190,9 +190,19 @@ def carried_over(old: Components, free: NDArray[np.bool_], box: tuple[slice, sli
     # Nodes: the old labels, then one per old component, then the fresh labels.
     labels, first = old.labels, len(old.component)
     nodes = first + int(old.component.max()) + 1
-    both = inner & old.free[:, ring[0], ring[1]]
+    # Joined only on the frame (ring less box), where old and new free configurations agree
+    # and every path out of the ring passes: old labels inside the box are of the old world
+    # (joining there kept a pen closed since joined, and made the joins as many as the box's
+    # configurations: 5 s and 1.8 GB on a 40 m arena where the box spans it).
+    frame = np.ones(inner.shape[1:], dtype=bool)
+    frame[
+        box[0].start - ring[0].start : box[0].stop - ring[0].start,
+        box[1].start - ring[1].start : box[1].stop - ring[1].start,
+    ] = False
+    both = inner & frame
     a = labels[:, ring[0], ring[1]][both]
-    fresh = np.where(inner, fresh + nodes, 0).astype(labels.dtype)
+    fresh = fresh.astype(labels.dtype, copy=False)
+    np.add(fresh, nodes, out=fresh, where=inner)  # (in place: a box may span the arena)
     labels[:, ring[0], ring[1]] = fresh  # (in place: ``old`` is taken over)
     ids = np.arange(first, dtype=labels.dtype)
     joins = [(ids, first + old.component), (a, fresh[both]), _wrapped(inner, fresh)]
