@@ -250,6 +250,10 @@ class LatticePlanner:
             # allowance, which the test does not grant: the search is asked first then)
             and math.dist(here_xy, (first.x, first.y))
             > table.reach + leg_reach(first) + self.grid.settings.resolution
+            # (nor when the resting body keeps less than the margin at the start: its first
+            # motion keeps only the start's allowance, and may leave the pocket the test
+            # starts from for where the goal lies)
+            and self._keeps_margin(table, clearance, start)
             and not self.reachability(table, clearance, version, family).reaches(
                 start, (first.x, first.y), leg_reach(first)
             )
@@ -430,6 +434,13 @@ class LatticePlanner:
             known = self.distances(table, static[0], ("static", static[1]), goal)
             by = "known obstacles" if not math.isfinite(known[si, sj]) else "sensed obstacles"
         return f"unreachable: goal {goal.index} at ({goal.x:g}, {goal.y:g}) enclosed by {by}"
+
+    def _keeps_margin(self, table: MotionTable, clearance: Clearance, start: Key) -> bool:
+        """Whether the resting body at ``start`` keeps the margin at every point."""
+        i, j, k = start
+        points = self.grid.centre(i, j) + table.body_points[k]
+        slack = clearance(points) - table.body_needs[k]
+        return bool(np.min(slack) >= self.settings.margin)
 
     def _unreachable(self, table: MotionTable, goal: LegGoal, started: float) -> LatticePlan:
         """The plan when no motion of the body can bring its head to ``goal``."""
