@@ -47,8 +47,9 @@ SEARCH_AGAIN = 40_000  # expansions of the search that follows when nothing got 
 # time limit stays a safety net; a budget, so a faster machine does not plan differently)
 MOTION_CACHES = 12  # motion caches kept (one per shape and clearance family); the least
 # recently used goes first (each holds up to ``lattice_cache.COMPILED_LIMIT`` states)
-REACH_KEPT = 8  # reachability answers kept (the latest per shape and clearance family; each
-# holds one label per configuration: 2.6 M on a 10 m arena, ~13 MB)
+REACH_KEPT = 8  # reachability answers kept (the latest per shape and clearance family) ...
+REACH_BYTES = 512 << 20  # ... within this many bytes of components (a label and a flag per
+# configuration: 13 MB on a 10 m arena, 205 MB on a 40 m one), the least recently used first
 
 
 @dataclass(frozen=True)
@@ -79,7 +80,8 @@ class LatticePlanner:
         self._maps: dict[tuple[Any, ...], Array] = {}
         # version and shape -> (shape and family, answers)
         # The latest world version's reachability per shape and family (the next version's
-        # is updated from it), the least recently used going past ``REACH_KEPT``.
+        # is updated from it), the least recently used going past ``REACH_KEPT`` or
+        # ``REACH_BYTES``.
         self._reach: dict[tuple[Any, ...], tuple[Any, Reachability]] = {}
         self._motions: dict[tuple[Any, ...], MotionCache] = {}
         self.states = StatePool()  # search states shared by every search on this grid
@@ -167,6 +169,9 @@ class LatticePlanner:
             margin = self.settings.margin
             latest = (version, Reachability(self.grid, table, at_centres, margin, earlier))
         self._reach[key] = latest  # (the newest last)
+        held = sum(r.held_bytes() for _, r in self._reach.values())
+        while held > REACH_BYTES and len(self._reach) > 1:
+            held -= self._reach.pop(next(iter(self._reach)))[1].held_bytes()
         return latest[1]
 
     # -- planning -----------------------------------------------------------------------------
@@ -243,21 +248,9 @@ class LatticePlanner:
                 return LatticePlan("unreachable", self._enclosed(table, g, pose, static))
         order = list(goals) if ordered else order_goals(self.grid, goals, maps, (si, sj))
         first = order[0]
-        if (
-            doubt
-            and not reachable
-            # (a plan of one motion may end where the resting body keeps only the start's
-            # allowance, which the test does not grant: the search is asked first then)
-            and math.dist(here_xy, (first.x, first.y))
-            > table.reach + leg_reach(first) + self.grid.settings.resolution
-            # (nor when the resting body keeps less than the margin at the start: its first
-            # motion keeps only the start's allowance, and may leave the pocket the test
-            # starts from for where the goal lies)
-            and self._keeps_margin(table, clearance, start)
-            and not self.reachability(table, clearance, version, family).reaches(
-                start, (first.x, first.y), leg_reach(first)
-            )
-        ):
+        if doubt and not reachable and self._apart(table, clearance, version, family, first, start):
+            if cancel is not None and cancel.is_set():
+                return LatticePlan("cancelled", "planning cancelled")
             return self._unreachable(table, first, started)
         plan = LatticePlan("solved", order=[g.index for g in order])
         here = start
@@ -318,7 +311,7 @@ class LatticePlanner:
         first: bool,
         deadline: float,
         cancel: CancelFlag | None,
-        cache: MotionCache,
+        cache: MotionCache | None,
     ) -> LatticeTask:
         """The task of one leg: from ``start`` to the tracked point on ``goal``, reading and
         keeping free motions in ``cache``."""
@@ -435,12 +428,34 @@ class LatticePlanner:
             by = "known obstacles" if not math.isfinite(known[si, sj]) else "sensed obstacles"
         return f"unreachable: goal {goal.index} at ({goal.x:g}, {goal.y:g}) enclosed by {by}"
 
-    def _keeps_margin(self, table: MotionTable, clearance: Clearance, start: Key) -> bool:
-        """Whether the resting body at ``start`` keeps the margin at every point."""
-        i, j, k = start
-        points = self.grid.centre(i, j) + table.body_points[k]
-        slack = clearance(points) - table.body_needs[k]
-        return bool(np.min(slack) >= self.settings.margin)
+    def _apart(
+        self,
+        table: MotionTable,
+        clearance: Clearance,
+        version: Any,
+        family: Hashable,
+        goal: LegGoal,
+        start: Key,
+    ) -> bool:
+        """Whether no plan can bring the head onto ``goal`` from ``start``, told before any
+        search (``plan``'s ``doubt``) exactly when the search and the test after it would
+        end in ``unreachable``: the reachability test says so from the start, as it would
+        after the search, and also from every state a free first motion leads to. Motions
+        out of the start keep only the start's allowance, which the test does not grant
+        (it starts from a free configuration beside a start that touches something, maybe
+        in a pocket the first motion leaves); every later motion keeps the margin, which
+        it does. A goal within one motion's reach is left to the search."""
+        here = self.grid.centre(*start[:2])
+        if math.dist(here, (goal.x, goal.y)) <= (
+            table.reach + leg_reach(goal) + self.grid.settings.resolution
+        ):
+            return False
+        test = self.reachability(table, clearance, version, family)
+        at, reach = (goal.x, goal.y), leg_reach(goal)
+        if test.reaches(start, at, reach):
+            return False
+        task = self._leg(table, clearance, start, goal, True, math.inf, None, None)
+        return not test.reaches_after([key for key, _ in task.valid_motions(start)], at, reach)
 
     def _unreachable(self, table: MotionTable, goal: LegGoal, started: float) -> LatticePlan:
         """The plan when no motion of the body can bring its head to ``goal``."""

@@ -15,6 +15,7 @@ start's component cannot be reached by any plan; the converse need not hold.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from typing import NamedTuple
 
 import numpy as np
@@ -294,6 +295,27 @@ class Reachability:
         self.last = self._reaches(starts, goal, limit, compiled, flood_budget)
         return self.last
 
+    def reaches_after(self, keys: Sequence[Key], goal: tuple[float, float], reach: float) -> bool:
+        """Like ``reaches``, from any of the lattice states ``keys`` (where a plan's first
+        motion may lead) that pass the test themselves: one that does not ends every plan
+        through it there (the next motion's sweep begins with its resting body). ``False``
+        when none does."""
+        K, nx, ny = self.grid.settings.orientations, self.grid.nx, self.grid.ny
+        numbers = sorted(
+            {(k % K * nx + i) * ny + j for i, j, k in keys if 0 <= i < nx and 0 <= j < ny}
+        )
+        starts = np.asarray([n for n in numbers if self._free(*self._unpack(n))], dtype=np.int64)
+        if starts.size == 0:
+            return False
+        limit = reach + self.grid.settings.resolution * math.sqrt(0.5)
+        return self._reaches(starts, goal, limit, None, None)
+
+    def _unpack(self, number: int) -> tuple[int, int, int]:
+        """(k, i, j) of a configuration number ``(k * nx + i) * ny + j``."""
+        k, cell = divmod(number, self.grid.nx * self.grid.ny)
+        i, j = divmod(cell, self.grid.ny)
+        return k, i, j
+
     def _reaches(
         self,
         starts: NDArray[np.int64],
@@ -337,6 +359,14 @@ class Reachability:
         if self._labels is None:
             self._labels = self._updated()
         return self._labels is not None and not self._answer(self._labels, starts, goal, limit)
+
+    def held_bytes(self) -> int:
+        """Bytes of the components it holds, its own and an earlier world's."""
+        held = 0
+        for known in (self._labels, self._previous._labels if self._previous else None):
+            if known is not None:
+                held += known.free.nbytes + known.labels.nbytes + known.component.nbytes
+        return held
 
     @property
     def labelled(self) -> bool:

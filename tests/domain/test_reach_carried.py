@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from domain import lattice_reach
+from domain import lattice_planner, lattice_reach
 from domain.goal_order import LegGoal
 from domain.lattice import LatticeGrid, LatticeSettings, motion_table
 from domain.lattice_planner import PARTIAL_AFTER, LatticePlanner
@@ -123,6 +123,7 @@ def test_a_doubted_goal_is_found_unreachable_before_any_search(
             m.setattr(p, "_search", counted)
             if apart:  # as a pen sensed round the goal would
                 m.setattr(Reachability, "reaches", lambda *a, **k: False)
+                m.setattr(Reachability, "reaches_after", lambda *a, **k: False)
             searched.clear()
             return p.plan(TABLE, world.clearance_at, world.version, pose, legs, True, doubt=doubt)
 
@@ -138,3 +139,27 @@ def test_a_doubted_goal_is_found_unreachable_before_any_search(
     first, again = plan(False, apart=False), plan(True, apart=False)
     assert first.solved and again.solved
     assert [a.name for a in again.actions] == [a.name for a in first.actions]
+
+
+def test_reachability_answers_are_kept_within_a_byte_budget(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The latest answers per clearance family are kept (the next world's carry over from
+    them) until their components pass ``REACH_BYTES``; the least recently used go first."""
+    assert TABLE is not None
+    world = WorldModel(BOUNDS, [Circle(*d) for d in pen()])
+    p = LatticePlanner(BOUNDS, SETTINGS)
+    asked = {}
+    for family in ("a", "b", "c"):
+        asked[family] = p.reachability(TABLE, world.clearance_at, (0, family), family)
+        assert not asked[family].reaches((18, 18, 0), PEN, 0.08, compiled=False)  # labelled
+    assert len(p._reach) == 3 and asked["a"].held_bytes() > 0
+    one = asked["a"].held_bytes()
+    monkeypatch.setattr(lattice_planner, "REACH_BYTES", int(2.5 * one))
+    newest = p.reachability(TABLE, world.clearance_at, (0, "d"), "d")
+    newest.reaches((18, 18, 0), PEN, 0.08, compiled=False)
+    p.reachability(TABLE, world.clearance_at, (0, "b"), "b")  # used again: kept
+    assert p.reachability(TABLE, world.clearance_at, (0, "b"), "b") is asked["b"]
+    kept = {key[2] for key in p._reach}
+    assert "a" not in kept and "b" in kept and "d" in kept
+    assert sum(r.held_bytes() for _, r in p._reach.values()) <= int(2.5 * one)
