@@ -166,6 +166,8 @@ def exact_components(free: NDArray[np.bool_]) -> Components:
     return Components(free, labels, _joined(count + 1, [_wrapped(free, labels)]), True)
 
 
+CARRY_SHARE = 0.5  # of the grid's cells, past which a box of changes is labelled afresh
+# (a box spanning the arena cost 2.5 times a fresh labelling carried over)
 RENUMBER_AFTER = 1 << 20  # nodes of carried-over components before they are numbered afresh
 
 
@@ -421,7 +423,8 @@ class Reachability:
         )
 
     def _updated(self) -> Components | None:
-        """The earlier world's components carried over to this one (``None`` without one):
+        """The earlier world's components carried over to this one (``None`` without one,
+        or when the changes' box spans more than ``CARRY_SHARE`` of the grid):
         the cells whose configurations may have changed are labelled afresh and joined with
         the earlier components they touch, which are kept elsewhere. A component may so
         come out joined with one it no longer connects with (something sensed since cut
@@ -436,6 +439,9 @@ class Reachability:
         if box is None:
             self._previous = None
             return old  # nothing changed
+        area = (box[0].stop - box[0].start) * (box[1].stop - box[1].start)
+        if area > CARRY_SHARE * self.grid.nx * self.grid.ny:
+            return None  # changes all over: labelling afresh costs less
         free = self._free_configurations()
         # Taken over, not copied (a large array): an earlier world's question is not asked
         # again once a later one's is; if it were, it would be answered afresh.

@@ -163,3 +163,16 @@ def test_reachability_answers_are_kept_within_a_byte_budget(
     kept = {key[2] for key in p._reach}
     assert "a" not in kept and "b" in kept and "d" in kept
     assert sum(r.held_bytes() for _, r in p._reach.values()) <= int(2.5 * one)
+
+
+def test_changes_all_over_the_arena_are_labelled_afresh() -> None:
+    """A box of changes spanning most of the grid is not carried over (labelling afresh costs
+    less); the answer is the same."""
+    assert TABLE is not None
+    grid = LatticeGrid(BOUNDS, SETTINGS)
+    before = Reachability(grid, TABLE, clearance(grid, pen()), margin=0.03)
+    assert not before.reaches((18, 18, 0), PEN, 0.08, compiled=False)
+    corners = [*pen(), (-1.3, -1.3, 0.1), (1.3, 1.3, 0.05), (1.3, -1.3, 0.1)]
+    after = Reachability(grid, TABLE, clearance(grid, corners), margin=0.03, previous=before)
+    assert not after.reaches((18, 18, 0), PEN, 0.08, compiled=False)
+    assert after._labels is not None and after._labels.exact
