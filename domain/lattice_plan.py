@@ -3,8 +3,10 @@ status and reason, and the PDDL problem it solves."""
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
+from domain.goal_order import LegGoal
 from domain.lattice import Key
 from domain.lattice_pddl import LatticeGraph, lattice_problem
 from domain.lattice_task import LatticeTask
@@ -68,3 +70,32 @@ class LatticePlan:
         if self.status == "cancelled":
             status = "cancelled"
         return PlanResult(status, self.pddl_plan, self.search_ms, self.expansions, self.reason)  # type: ignore[arg-type]
+
+
+def unreachable(shape: str, goal: LegGoal, started: float) -> LatticePlan:
+    """The plan when no motion of the ``shape`` body can bring its head to ``goal`` (planning
+    began at ``started``, ``time.monotonic()``)."""
+    done = LatticePlan(
+        "unreachable",
+        f"unreachable: goal {goal.index} at ({goal.x:g}, {goal.y:g}): no collision-free "
+        f"motion of the {shape} body brings its head there",
+    )
+    done.search_ms = (time.monotonic() - started) * 1e3
+    return done
+
+
+def search_failed(
+    result: PlanResult, shape: str, goal: LegGoal, expansions: int, time_limit: float
+) -> str:
+    """Why a leg's search found no plan, as the user reads it (``expansions``: its budget)."""
+    if result.status == "unsolvable":
+        return (
+            f"unreachable: no collision-free sequence of {shape} primitives brings "
+            f"the body to goal {goal.index} at ({goal.x:g}, {goal.y:g})"
+        )
+    if result.status == "timeout":
+        return (
+            f"planning timeout: no plan to goal {goal.index} within "
+            f"{expansions:,} expansions or {time_limit:g} s"
+        )
+    return f"planning {result.status}"

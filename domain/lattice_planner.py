@@ -23,9 +23,10 @@ from domain.goal_order import LegGoal, order_goals
 from domain.lattice import Key, LatticeGrid, LatticeSettings, MotionTable
 from domain.lattice_cache import MotionCache
 from domain.lattice_distances import centroid_need, distance_map
+from domain.lattice_doubt import apart_before_search
 from domain.lattice_entry import goal_entered
 from domain.lattice_heuristic import LatticeHeuristic
-from domain.lattice_plan import LatticeAction, LatticePlan
+from domain.lattice_plan import LatticeAction, LatticePlan, search_failed, unreachable
 from domain.lattice_reach import Reachability
 from domain.lattice_repair import PlanRepairer, leg_reach
 from domain.lattice_states import StatePool, no_cycle_collection
@@ -38,6 +39,7 @@ from domain.pyperplan_adapter import (
     SearchStopped,
     stop_if_due,
 )
+from domain.reach_memory import ReachMemory
 from sim.robot import Array
 from sim.world import Bounds
 
@@ -47,9 +49,6 @@ SEARCH_AGAIN = 40_000  # expansions of the search that follows when nothing got 
 # time limit stays a safety net; a budget, so a faster machine does not plan differently)
 MOTION_CACHES = 12  # motion caches kept (one per shape and clearance family); the least
 # recently used goes first (each holds up to ``lattice_cache.COMPILED_LIMIT`` states)
-REACH_KEPT = 8  # reachability answers kept (the latest per shape and clearance family) ...
-REACH_BYTES = 512 << 20  # ... within this many bytes of components (a label and a flag per
-# configuration: 13 MB on a 10 m arena, 205 MB on a 40 m one), the least recently used first
 
 
 @dataclass(frozen=True)
@@ -78,11 +77,7 @@ class LatticePlanner:
         self.settings = settings
         self.search, self.heuristic, self.time_limit = search, heuristic, time_limit
         self._maps: dict[tuple[Any, ...], Array] = {}
-        # version and shape -> (shape and family, answers)
-        # The latest world version's reachability per shape and family (the next version's
-        # is updated from it), the least recently used going past ``REACH_KEPT`` or
-        # ``REACH_BYTES``.
-        self._reach: dict[tuple[Any, ...], tuple[Any, Reachability]] = {}
+        self.reach_memory = ReachMemory(self.grid, settings.margin)
         self._motions: dict[tuple[Any, ...], MotionCache] = {}
         self.states = StatePool()  # search states shared by every search on this grid
         self._centres: tuple[Any, Array] | None = None
@@ -159,20 +154,9 @@ class LatticePlanner:
         """The free configuration space's components for this world version and shape; the
         answers for an earlier version of the same ``family`` of clearance (see ``plan``) are
         updated where the clearance changed rather than made afresh."""
-        key = (table.shape, tuple(np.round(table.joints, 3)), family)
-        latest = self._reach.pop(key, None)
-        if latest is None or latest[0] != version:
-            if latest is None and len(self._reach) >= REACH_KEPT:  # the least recently used
-                del self._reach[next(iter(self._reach))]
-            at_centres = self.centre_clearance(clearance, version)
-            earlier = latest[1] if latest is not None else None
-            margin = self.settings.margin
-            latest = (version, Reachability(self.grid, table, at_centres, margin, earlier))
-        self._reach[key] = latest  # (the newest last)
-        held = sum(r.held_bytes() for _, r in self._reach.values())
-        while held > REACH_BYTES and len(self._reach) > 1:
-            held -= self._reach.pop(next(iter(self._reach)))[1].held_bytes()
-        return latest[1]
+        return self.reach_memory.get(
+            table, lambda: self.centre_clearance(clearance, version), version, family
+        )
 
     # -- planning -----------------------------------------------------------------------------
     def plan(
@@ -248,10 +232,26 @@ class LatticePlanner:
                 return LatticePlan("unreachable", self._enclosed(table, g, pose, static))
         order = list(goals) if ordered else order_goals(self.grid, goals, maps, (si, sj))
         first = order[0]
-        if doubt and not reachable and self._apart(table, clearance, version, family, first, start):
+        if (
+            doubt
+            and not reachable
+            and apart_before_search(
+                self.grid,
+                table,
+                start,
+                first,
+                lambda: self.reachability(table, clearance, version, family),
+                lambda: [
+                    key
+                    for key, _ in self._leg(
+                        table, clearance, start, first, True, math.inf, None, None
+                    ).valid_motions(start)
+                ],
+            )
+        ):
             if cancel is not None and cancel.is_set():
                 return LatticePlan("cancelled", "planning cancelled")
-            return self._unreachable(table, first, started)
+            return unreachable(table.shape, first, started)
         plan = LatticePlan("solved", order=[g.index for g in order])
         here = start
         for leg, goal in enumerate(order):
@@ -277,7 +277,7 @@ class LatticePlanner:
                     )
                 ):
                     plan.status, plan.actions = "unreachable", []
-                    plan.reason = self._unreachable(table, goal, started).reason
+                    plan.reason = unreachable(table.shape, goal, started).reason
                     break
                 plan.reachable = plan.reachable or (leg == 0 and not known)
             if result.status == "timeout" and time.monotonic() < deadline:
@@ -291,7 +291,9 @@ class LatticePlanner:
             plan.legs.append(task)
             if not result.solved:
                 plan.status = result.status
-                plan.reason = self._why(result, table, goal)
+                plan.reason = search_failed(
+                    result, table.shape, goal, PARTIAL_AFTER + SEARCH_AGAIN, self.time_limit
+                )
                 plan.actions = []
                 break
             actions, here = self.actions_of(task, table, result.plan)
@@ -427,55 +429,3 @@ class LatticePlanner:
             known = self.distances(table, static[0], ("static", static[1]), goal)
             by = "known obstacles" if not math.isfinite(known[si, sj]) else "sensed obstacles"
         return f"unreachable: goal {goal.index} at ({goal.x:g}, {goal.y:g}) enclosed by {by}"
-
-    def _apart(
-        self,
-        table: MotionTable,
-        clearance: Clearance,
-        version: Any,
-        family: Hashable,
-        goal: LegGoal,
-        start: Key,
-    ) -> bool:
-        """Whether no plan can bring the head onto ``goal`` from ``start``, told before any
-        search (``plan``'s ``doubt``) exactly when the search and the test after it would
-        end in ``unreachable``: the reachability test says so from the start, as it would
-        after the search, and also from every state a free first motion leads to. Motions
-        out of the start keep only the start's allowance, which the test does not grant
-        (it starts from a free configuration beside a start that touches something, maybe
-        in a pocket the first motion leaves); every later motion keeps the margin, which
-        it does. A goal within one motion's reach is left to the search."""
-        here = self.grid.centre(*start[:2])
-        if math.dist(here, (goal.x, goal.y)) <= (
-            table.reach + leg_reach(goal) + self.grid.settings.resolution
-        ):
-            return False
-        test = self.reachability(table, clearance, version, family)
-        at, reach = (goal.x, goal.y), leg_reach(goal)
-        if test.reaches(start, at, reach):
-            return False
-        task = self._leg(table, clearance, start, goal, True, math.inf, None, None)
-        return not test.reaches_after([key for key, _ in task.valid_motions(start)], at, reach)
-
-    def _unreachable(self, table: MotionTable, goal: LegGoal, started: float) -> LatticePlan:
-        """The plan when no motion of the body can bring its head to ``goal``."""
-        done = LatticePlan(
-            "unreachable",
-            f"unreachable: goal {goal.index} at ({goal.x:g}, {goal.y:g}): no collision-free "
-            f"motion of the {table.shape} body brings its head there",
-        )
-        done.search_ms = (time.monotonic() - started) * 1e3
-        return done
-
-    def _why(self, result: PlanResult, table: MotionTable, goal: LegGoal) -> str:
-        if result.status == "unsolvable":
-            return (
-                f"unreachable: no collision-free sequence of {table.shape} primitives brings "
-                f"the body to goal {goal.index} at ({goal.x:g}, {goal.y:g})"
-            )
-        if result.status == "timeout":
-            return (
-                f"planning timeout: no plan to goal {goal.index} within "
-                f"{PARTIAL_AFTER + SEARCH_AGAIN:,} expansions or {self.time_limit:g} s"
-            )
-        return f"planning {result.status}"

@@ -7,32 +7,23 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from domain import lattice_planner, lattice_reach
+from domain import reach_components, reach_memory
 from domain.goal_order import LegGoal
 from domain.lattice import LatticeGrid, LatticeSettings, motion_table
 from domain.lattice_planner import PARTIAL_AFTER, LatticePlanner
-from domain.lattice_reach import Reachability, carried_over, exact_components
+from domain.lattice_reach import Reachability
 from domain.pyperplan_adapter import PlanResult
+from domain.reach_components import carried_over, exact_components
 from domain.worldmodel import WorldModel
 from primitives.library import load_bundled
 from sim.obstacles import Circle
 from sim.world import Bounds
+from tests.domain.disc_scenes import clearance
 
 SETTINGS = LatticeSettings()
 TABLE = motion_table(load_bundled(), "straight", (0.0, 0.0, 0.0), SETTINGS)
 BOUNDS = Bounds(-1.5, 1.5, -1.5, 1.5)
 PEN = (0.9, 0.9)
-
-
-def clearance(grid: LatticeGrid, discs: list[tuple[float, float, float]]) -> np.ndarray:
-    """Metres from each cell centre to the nearest disc or wall."""
-    c, b = grid.centres, grid.bounds
-    out = np.minimum.reduce(
-        [c[:, 0] - b.xmin, b.xmax - c[:, 0], c[:, 1] - b.ymin, b.ymax - c[:, 1]]
-    )
-    for x, y, r in discs:
-        out = np.minimum(out, np.hypot(c[:, 0] - x, c[:, 1] - y) - r)
-    return out
 
 
 def pen(gap: int = 0, n: int = 40) -> list[tuple[float, float, float]]:
@@ -52,7 +43,7 @@ def test_carried_components_never_part_what_connects(
     within one carried-over component (apart there means apart); also when the earlier
     nodes are first numbered afresh (after many carries)."""
     if renumbered:
-        monkeypatch.setattr(lattice_reach, "RENUMBER_AFTER", 0)
+        monkeypatch.setattr(reach_components, "RENUMBER_AFTER", 0)
     rng = np.random.default_rng(seed)
     K, nx, ny = 4, 24, 24
     before = rng.uniform(size=(K, nx, ny)) < 0.3
@@ -153,16 +144,16 @@ def test_reachability_answers_are_kept_within_a_byte_budget(
     for family in ("a", "b", "c"):
         asked[family] = p.reachability(TABLE, world.clearance_at, (0, family), family)
         assert not asked[family].reaches((18, 18, 0), PEN, 0.08, compiled=False)  # labelled
-    assert len(p._reach) == 3 and asked["a"].held_bytes() > 0
+    assert len(p.reach_memory) == 3 and asked["a"].held_bytes() > 0
     one = asked["a"].held_bytes()
-    monkeypatch.setattr(lattice_planner, "REACH_BYTES", int(2.5 * one))
+    monkeypatch.setattr(reach_memory, "REACH_BYTES", int(2.5 * one))
     newest = p.reachability(TABLE, world.clearance_at, (0, "d"), "d")
     newest.reaches((18, 18, 0), PEN, 0.08, compiled=False)
     p.reachability(TABLE, world.clearance_at, (0, "b"), "b")  # used again: kept
     assert p.reachability(TABLE, world.clearance_at, (0, "b"), "b") is asked["b"]
-    kept = {key[2] for key in p._reach}
+    kept = set(p.reach_memory.families())
     assert "a" not in kept and "b" in kept and "d" in kept
-    assert sum(r.held_bytes() for _, r in p._reach.values()) <= int(2.5 * one)
+    assert p.reach_memory.held_bytes() <= int(2.5 * one)
 
 
 def test_changes_all_over_the_arena_are_labelled_afresh() -> None:

@@ -11,10 +11,12 @@ import pytest
 
 from domain import reach_kernel
 from domain.lattice import LatticeGrid, LatticeSettings, motion_table
-from domain.lattice_reach import Reachability, carried_over, exact_components
+from domain.lattice_reach import Reachability
+from domain.reach_components import carried_over, exact_components
 from primitives.library import load_bundled
 from primitives.shapes import SHAPES
 from sim.world import Bounds
+from tests.domain.disc_scenes import clearance
 
 SETTINGS = LatticeSettings()
 LIBRARY = load_bundled()
@@ -22,17 +24,6 @@ LIBRARY = load_bundled()
 BOUNDS = Bounds(-1.5, 1.5, -1.2, 1.3)
 Disc = tuple[float, float, float]
 Pen = tuple[float, float, float, int]  # centre, radius, discs left out (0: closed)
-
-
-def clearance(grid: LatticeGrid, discs: list[Disc]) -> np.ndarray:
-    """Metres from each cell centre to the nearest disc or wall."""
-    c, b = grid.centres, grid.bounds
-    out = np.minimum.reduce(
-        [c[:, 0] - b.xmin, b.xmax - c[:, 0], c[:, 1] - b.ymin, b.ymax - c[:, 1]]
-    )
-    for x, y, r in discs:
-        out = np.minimum(out, np.hypot(c[:, 0] - x, c[:, 1] - y) - r)
-    return out
 
 
 def pen_discs(cx: float, cy: float, radius: float, gap: int, n: int = 40) -> list[Disc]:

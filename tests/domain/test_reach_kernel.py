@@ -10,23 +10,12 @@ from domain.lattice import LatticeGrid, LatticeSettings, motion_table
 from domain.lattice_reach import Reachability
 from primitives.library import load_bundled
 from sim.world import Bounds
+from tests.domain.disc_scenes import clearance
 
 pytestmark = pytest.mark.skipif(not reach_kernel.AVAILABLE, reason="numba kernels are off")
 
 SETTINGS = LatticeSettings()
 TABLE = motion_table(load_bundled(), "straight", (0.0, 0.0, 0.0), SETTINGS)
-
-
-def clearance(grid: LatticeGrid, discs: list[tuple[float, float, float]]) -> np.ndarray:
-    """Metres from each cell centre to the nearest disc or wall."""
-    c = grid.centres
-    b = grid.bounds
-    out = np.minimum.reduce(
-        [c[:, 0] - b.xmin, b.xmax - c[:, 0], c[:, 1] - b.ymin, b.ymax - c[:, 1]]
-    )
-    for x, y, r in discs:
-        out = np.minimum(out, np.hypot(c[:, 0] - x, c[:, 1] - y) - r)
-    return out
 
 
 def ring(x: float, y: float, radius: float, n: int = 40) -> list[tuple[float, float, float]]:

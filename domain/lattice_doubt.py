@@ -1,0 +1,46 @@
+"""Whether a goal is out of reach before any search (a planner's ``doubt``), told exactly when
+the search and the reachability test after it would end in ``unreachable``.
+
+A clearance tier that found a goal unreachable at the last replan usually still does (a
+corridor closed on a guess stays closed); asking the reachability test (domain/lattice_reach.py)
+first spares the search that would fail before the same test. The test's relaxation holds
+every motion that keeps the margin, but motions out of the start keep only the start's
+allowance (the robot may touch something after a contact), and from a start that touches
+something the test starts from a free configuration beside it, maybe in a pocket the first
+motion leaves. So the answer is "apart" only when the test says so from the start (as it would
+after the search) and from every state a free first motion leads to; a goal within one
+motion's reach is left to the search.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+
+from domain.goal_order import LegGoal
+from domain.lattice import Key, LatticeGrid, MotionTable
+from domain.lattice_reach import Reachability
+from domain.lattice_repair import leg_reach
+
+
+def apart_before_search(
+    grid: LatticeGrid,
+    table: MotionTable,
+    start: Key,
+    goal: LegGoal,
+    test: Callable[[], Reachability],
+    first_moves: Callable[[], list[Key]],
+) -> bool:
+    """Whether no plan of ``table``'s body can bring its head onto ``goal`` from ``start``
+    (``test``: the reachability answers of the world and tier planned for; ``first_moves``:
+    where the free motions out of the start lead). Both are asked only when needed."""
+    here = grid.centre(*start[:2])
+    if math.dist(here, (goal.x, goal.y)) <= (
+        table.reach + leg_reach(goal) + grid.settings.resolution
+    ):
+        return False  # (a plan of one motion may end where only the start's allowance holds)
+    answers = test()
+    at, reach = (goal.x, goal.y), leg_reach(goal)
+    return not answers.reaches(start, at, reach) and not answers.reaches_after(
+        first_moves(), at, reach
+    )
