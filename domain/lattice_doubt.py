@@ -39,7 +39,16 @@ def apart_before_search(
         table.reach + leg_reach(goal) + grid.settings.resolution
     ):
         return False  # (a plan of one motion may end where only the start's allowance holds)
-    answers = test()
+    return apart(test(), start, goal, first_moves)
+
+
+def apart(
+    answers: Reachability, start: Key, goal: LegGoal, first_moves: Callable[[], list[Key]]
+) -> bool:
+    """Whether the reachability test keeps ``goal`` apart from ``start`` and from every
+    state a free motion out of it leads to (``first_moves``, asked only when needed): no
+    plan from ``start`` can bring the head there, whose first motion keeps only the start's
+    allowance."""
     at, reach = (goal.x, goal.y), leg_reach(goal)
     return not answers.reaches(start, at, reach) and not answers.reaches_after(
         first_moves(), at, reach

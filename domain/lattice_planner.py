@@ -23,7 +23,7 @@ from domain.goal_order import LegGoal, order_goals
 from domain.lattice import Key, LatticeGrid, LatticeSettings, MotionTable
 from domain.lattice_cache import MotionCache
 from domain.lattice_distances import centroid_need, distance_map
-from domain.lattice_doubt import apart_before_search
+from domain.lattice_doubt import apart, apart_before_search
 from domain.lattice_entry import goal_entered
 from domain.lattice_heuristic import LatticeHeuristic
 from domain.lattice_plan import LatticeAction, LatticePlan, search_failed, unreachable
@@ -270,11 +270,9 @@ class LatticePlanner:
             known = leg == 0 and reachable  # (the resting-body test passed in a stricter tier)
             if long_search:
                 enters = result.status != "timeout" or goal_entered(task)
-                if not enters or not (
-                    known
-                    or self.reachability(table, clearance, version, family).reaches(
-                        here, (goal.x, goal.y), task.reach
-                    )
+                if not enters or (
+                    not known
+                    and self._apart(table, clearance, version, family, task, here, goal, leg)
                 ):
                     plan.status, plan.actions = "unreachable", []
                     plan.reason = unreachable(table.shape, goal, started).reason
@@ -415,6 +413,27 @@ class LatticePlanner:
                 target = (float(pose[0]), float(pose[1]), float(pose[2]))
                 out.append(LatticeAction("visit", name, None, target, 0.0, task.goal_index))
         return out, here
+
+    def _apart(
+        self,
+        table: MotionTable,
+        clearance: Clearance,
+        version: Any,
+        family: Hashable,
+        task: LatticeTask,
+        here: Key,
+        goal: LegGoal,
+        leg: int,
+    ) -> bool:
+        """Whether the reachability test keeps ``goal`` apart from ``here`` (``task``: the leg
+        from there). The first leg's first motion keeps only the start's allowance, which
+        the test does not grant: it must also keep the goal apart from where each free one
+        leads (``lattice_doubt.apart``); later legs start where a motion keeping the margin
+        ended."""
+        answers = self.reachability(table, clearance, version, family)
+        if leg > 0:
+            return not answers.reaches(here, (goal.x, goal.y), task.reach)
+        return apart(answers, here, goal, lambda: [k for k, _ in task.valid_motions(here)])
 
     def _enclosed(
         self,
