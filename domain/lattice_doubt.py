@@ -23,23 +23,14 @@ from domain.lattice_reach import Reachability
 from domain.lattice_repair import leg_reach
 
 
-def apart_before_search(
-    grid: LatticeGrid,
-    table: MotionTable,
-    start: Key,
-    goal: LegGoal,
-    test: Callable[[], Reachability],
-    first_moves: Callable[[], list[Key]],
-) -> bool:
-    """Whether no plan of ``table``'s body can bring its head onto ``goal`` from ``start``
-    (``test``: the reachability answers of the world and tier planned for; ``first_moves``:
-    where the free motions out of the start lead). Both are asked only when needed."""
+def within_one_motion(grid: LatticeGrid, table: MotionTable, start: Key, goal: LegGoal) -> bool:
+    """Whether one motion of ``table``'s body from ``start`` might bring its head onto ``goal``
+    (such a plan may end where only the start's allowance holds, which the test does not
+    grant: the search is asked first)."""
     here = grid.centre(*start[:2])
-    if math.dist(here, (goal.x, goal.y)) <= (
+    return math.dist(here, (goal.x, goal.y)) <= (
         table.reach + leg_reach(goal) + grid.settings.resolution
-    ):
-        return False  # (a plan of one motion may end where only the start's allowance holds)
-    return apart(test(), start, goal, first_moves)
+    )
 
 
 def apart(

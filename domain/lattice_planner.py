@@ -23,7 +23,7 @@ from domain.goal_order import LegGoal, order_goals
 from domain.lattice import Key, LatticeGrid, LatticeSettings, MotionTable
 from domain.lattice_cache import MotionCache
 from domain.lattice_distances import centroid_need, distance_map
-from domain.lattice_doubt import apart, apart_before_search
+from domain.lattice_doubt import apart, within_one_motion
 from domain.lattice_entry import goal_entered
 from domain.lattice_heuristic import LatticeHeuristic
 from domain.lattice_plan import LatticeAction, LatticePlan, search_failed, unreachable
@@ -232,22 +232,12 @@ class LatticePlanner:
                 return LatticePlan("unreachable", self._enclosed(table, g, pose, static))
         order = list(goals) if ordered else order_goals(self.grid, goals, maps, (si, sj))
         first = order[0]
+        task = self._leg(table, clearance, start, first, True, deadline, cancel, cache)
         if (
             doubt
             and not reachable
-            and apart_before_search(
-                self.grid,
-                table,
-                start,
-                first,
-                lambda: self.reachability(table, clearance, version, family),
-                lambda: [
-                    key
-                    for key, _ in self._leg(
-                        table, clearance, start, first, True, math.inf, None, None
-                    ).valid_motions(start)
-                ],
-            )
+            and not within_one_motion(self.grid, table, start, first)
+            and self._apart(table, clearance, version, family, task, start, first, 0)
         ):
             if cancel is not None and cancel.is_set():
                 return LatticePlan("cancelled", "planning cancelled")
@@ -255,7 +245,8 @@ class LatticePlanner:
         plan = LatticePlan("solved", order=[g.index for g in order])
         here = start
         for leg, goal in enumerate(order):
-            task = self._leg(table, clearance, here, goal, leg == 0, deadline, cancel, cache)
+            if leg > 0:
+                task = self._leg(table, clearance, here, goal, False, deadline, cancel, cache)
             task.budget = PARTIAL_AFTER
             if leg == 0:
                 plan.task = task

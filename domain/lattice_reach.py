@@ -205,9 +205,7 @@ class Reachability:
         starts = self._starts(start)
         if starts.size == 0:
             return True
-        grid = self.grid
-        limit = reach + grid.settings.resolution * math.sqrt(0.5)
-        self.last = self._reaches(starts, goal, limit, compiled, flood_budget)
+        self.last = self._reaches(starts, goal, self._limit(reach), compiled, flood_budget)
         return self.last
 
     def reaches_after(self, keys: Sequence[Key], goal: tuple[float, float], reach: float) -> bool:
@@ -216,20 +214,20 @@ class Reachability:
         through it there (the next motion's sweep begins with its resting body). ``False``
         when none does."""
         K, nx, ny = self.grid.settings.orientations, self.grid.nx, self.grid.ny
-        numbers = sorted(
-            {(k % K * nx + i) * ny + j for i, j, k in keys if 0 <= i < nx and 0 <= j < ny}
-        )
-        starts = np.asarray([n for n in numbers if self._free(*self._unpack(n))], dtype=np.int64)
-        if starts.size == 0:
+        free = {
+            (k % K * nx + i) * ny + j
+            for i, j, k in keys
+            if 0 <= i < nx and 0 <= j < ny and self._free(k % K, i, j)
+        }
+        if not free:
             return False
-        limit = reach + self.grid.settings.resolution * math.sqrt(0.5)
-        return self._reaches(starts, goal, limit, None, None)
+        starts = np.asarray(sorted(free), dtype=np.int64)
+        return self._reaches(starts, goal, self._limit(reach), None, None)
 
-    def _unpack(self, number: int) -> tuple[int, int, int]:
-        """(k, i, j) of a configuration number ``(k * nx + i) * ny + j``."""
-        k, cell = divmod(number, self.grid.nx * self.grid.ny)
-        i, j = divmod(cell, self.grid.ny)
-        return k, i, j
+    def _limit(self, reach: float) -> float:
+        """How far from the goal a head on a cell centre may lie: ``reach`` and half a cell
+        diagonal (where the head really is, off the centre it is rounded to)."""
+        return reach + self.grid.settings.resolution * math.sqrt(0.5)
 
     def _reaches(
         self,
