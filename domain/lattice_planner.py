@@ -173,6 +173,7 @@ class LatticePlanner:
         reachable: bool = False,
         family: Hashable = None,
         doubt: bool = False,
+        quick: bool = False,
     ) -> LatticePlan:
         """A plan from ``pose`` through ``goals`` (in the given order, or the best found).
 
@@ -189,7 +190,9 @@ class LatticePlanner:
         last replan against this family, so the reachability test is asked before searching
         rather than after: when it says no, no search can reach the goal either, and the plan
         is the same ``unreachable`` the search would have ended in (a goal within one motion's
-        reach is searched first all the same).
+        reach is searched first all the same). ``quick``: the short search only; a leg whose
+        search finds nothing closer ends in ``timeout`` without searching again, longer (the
+        navigation strategy asks a looser tier's short search before this one's long one).
         """
         started = time.monotonic()
         deadline = started + self.time_limit
@@ -269,7 +272,7 @@ class LatticePlanner:
                     plan.reason = unreachable(table.shape, goal, started).reason
                     break
                 plan.reachable = plan.reachable or (leg == 0 and not known)
-            if result.status == "timeout" and time.monotonic() < deadline:
+            if result.status == "timeout" and not quick and time.monotonic() < deadline:
                 # Nothing closer to go to yet: search again, longer.
                 task = self._leg(table, clearance, here, goal, leg == 0, deadline, cancel, cache)
                 task.budget = SEARCH_AGAIN
@@ -280,9 +283,8 @@ class LatticePlanner:
             plan.legs.append(task)
             if not result.solved:
                 plan.status = result.status
-                plan.reason = search_failed(
-                    result, table.shape, goal, PARTIAL_AFTER + SEARCH_AGAIN, self.time_limit
-                )
+                budget = PARTIAL_AFTER + (0 if quick else SEARCH_AGAIN)
+                plan.reason = search_failed(result, table.shape, goal, budget, self.time_limit)
                 plan.actions = []
                 break
             actions, here = self.actions_of(task, table, result.plan)

@@ -18,17 +18,17 @@ from typing import Any
 
 import numpy as np
 
-from domain.clearance_tiers import Tier, tier_clearance, tiers
+from domain.clearance_tiers import Tier, tier_clearance
 from domain.lattice import LatticeSettings, MotionTable, compose, motion_table, relative
 from domain.lattice_pddl import lattice_domain_text
 from domain.lattice_plan import LatticeAction, LatticePlan
 from domain.lattice_planner import LatticePlanner
-from domain.lattice_repair import leg_reach
 from domain.lattice_task import LatticeTask, primitive_name
 from domain.plan_guard import Lookahead
 from domain.pyperplan_adapter import CancelFlag
 from domain.reshape import reshape_clear, reshape_duration
 from domain.strategy import Command, Replanned, Situation
+from domain.tier_walk import TierWalk
 from domain.triggers import Contact, NoProgress, PathBlocked, ReplanRecord, Trigger
 from primitives.grounding import TICK, Grounded, correction_basis, ground
 from primitives.library import Library, Primitive
@@ -53,13 +53,6 @@ class Running:
     action: LatticeAction
     grounded: Grounded
     left: float
-
-
-# Configurations the reachability flood may meet when pruning a shape before it hands the
-# question to the labelling: each shape is asked once (no later question reuses its labels),
-# and an enclosed goal's pen of some 60,000 configurations is flooded in about 17 ms where
-# labelling a 10 m arena's 2.56 million takes about 44 ms.
-PRUNING_FLOOD = 100_000
 
 
 def held_joints(joints: Sequence[float]) -> tuple[float, float, float]:
@@ -94,9 +87,7 @@ class NavigationStrategy:
         self.backoff: list[Primitive] = []
         self.recoveries = 0
         self.repairs = 0  # plans repaired in a row since the last full plan
-        # (shape, tier) whose plan was unreachable at the last replan that tried it: the next
-        # asks the reachability test before searching (a corridor closed on a guess stays so)
-        self._closed: set[tuple[str, Tier]] = set()
+        self.tiers = TierWalk(planner)  # which tier's plan runs, and which tiers are doubted
 
     # -- the lattice of the current body --------------------------------------------------------
     def table_for(self, shape: str, joints: tuple[float, float, float]) -> MotionTable | None:
@@ -139,7 +130,7 @@ class NavigationStrategy:
             pose = np.asarray(s.pose, dtype=float)
             for entry in self.backoff:  # plan from where backing off will leave the robot
                 pose = compose(pose, np.asarray(entry.end_pose))
-            self.plan = self._plan(table, s, pose, cancel, remaining)
+            self.plan, self.clearance = self.tiers.plan(table, s, pose, cancel, remaining)
             if self.plan.status in ("unreachable", "unsolvable", "timeout") and not s.deformed:
                 table = self._reshaped(table, s, pose, cancel) or table
             self.repairs = self.repairs + 1 if self.plan.repaired else 0
@@ -179,51 +170,6 @@ class NavigationStrategy:
             plan.release,
         )
 
-    def _plan(
-        self,
-        table: MotionTable,
-        s: Situation,
-        pose: Any,
-        cancel: CancelFlag | None,
-        remaining: Sequence[LatticeAction] = (),
-    ) -> LatticePlan:
-        """A lattice plan from ``pose`` (a repair of ``remaining``, the rest of the last plan,
-        where one will do). Suspected surfaces (where a touched one probably goes on) are kept
-        clear of while a way round them exists; only if none does are they planned through;
-        contacts are kept far from while that finds a plan, then only just."""
-        world = s.world
-        plan = LatticePlan("unsolvable")
-        goals = tuple((g.x, g.y) for g in s.goals)
-        reachable = False  # in the first tier: so in every later one, which keeps less
-        order = tiers(world.any_suspected())
-        for n, tier in enumerate(order):
-            self.clearance = tier_clearance(world, tier, goals)
-            # (not the last tier: its plan is the answer, and only a search tells an
-            # exhausted lattice, ``unsolvable``, from ``unreachable``)
-            closed = (table.shape, tier)
-            plan = self.planner.plan(
-                table,
-                self.clearance,
-                (world.version, tier, goals),
-                tuple(float(v) for v in pose),
-                s.goals,
-                s.ordered,
-                cancel,
-                static=(world.static_clearance_at, world.static_version),
-                previous=remaining,
-                reachable=reachable,
-                family=tier,
-                doubt=closed in self._closed and n < len(order) - 1,
-            )
-            if plan.status == "unreachable":
-                self._closed.add(closed)
-            else:
-                self._closed.discard(closed)
-            reachable = reachable or (n == 0 and plan.reachable)
-            if plan.status not in ("unreachable", "unsolvable"):
-                break  # a timeout turns to sense around instead (see ``replan``)
-        return plan
-
     def _reshaped(
         self,
         table: MotionTable,
@@ -249,9 +195,9 @@ class NavigationStrategy:
                 pose, table.joints, joints, clearance, self.settings.margin
             ):
                 continue
-            if not self._may_reach(other, s, pose, cancel):
+            if not self.tiers.may_reach(other, s, pose, cancel):
                 continue  # not even the loosest tier lets this body through: skip its searches
-            plan = self._plan(other, s, pose, cancel)
+            plan, self.clearance = self.tiers.plan(other, s, pose, cancel)
             if not plan.solved or plan.partial:
                 continue  # change shape only for a way all the way there
             target = (float(pose[0]), float(pose[1]), float(pose[2]))
@@ -266,26 +212,6 @@ class NavigationStrategy:
             self.plan = plan
             return other
         return None
-
-    def _may_reach(
-        self, table: MotionTable, s: Situation, pose: Any, cancel: CancelFlag | None = None
-    ) -> bool:
-        """``False`` when no plan of any tier can take this shape's body to every goal: the
-        loosest tier's clearance is at least every other's everywhere, and its free resting
-        configurations do not connect the start with some goal (``lattice_reach``)."""
-        goals = tuple((g.x, g.y) for g in s.goals)
-        loosest = tiers(s.world.any_suspected())[-1]
-        clearance = tier_clearance(s.world, loosest, goals)
-        version = (s.world.version, loosest, goals)
-        if self.planner.cut_off(table, clearance, version, pose, s.goals, cancel):
-            return False  # the centroid's distance map already says so (no 3-D labelling)
-        reach = self.planner.reachability(table, clearance, version, loosest)
-        start = self.planner.key_of(table, pose)
-        return all(
-            not (cancel is not None and cancel.is_set())  # cancelled: no shape is tried
-            and reach.reaches(start, (g.x, g.y), leg_reach(g), flood_budget=PRUNING_FLOOD)
-            for g in s.goals
-        )
 
     def broken(self, situation: Situation) -> Trigger | None:
         """Re-check the next moves' swept footprints whenever the world model changed."""

@@ -7,7 +7,7 @@ from typing import Any
 
 import pytest
 
-from domain import navigation_strategy
+from domain import tier_walk
 from domain.clearance_tiers import Tier
 from domain.goal_order import LegGoal
 from domain.lattice import LatticeSettings
@@ -29,7 +29,7 @@ def test_tiers_unreachable_last_time_are_doubted_and_the_last_never(
 ) -> None:
     planner = LatticePlanner(BOUNDS, LatticeSettings())
     strategy = NavigationStrategy(load_bundled(), planner)
-    monkeypatch.setattr(navigation_strategy, "tiers", lambda suspected: TIERS)
+    monkeypatch.setattr(tier_walk, "tiers", lambda suspected: TIERS)
     asked: list[tuple[str, bool]] = []
     unreachable = {"all", "off-goals", "none"}  # only the last tier finds a plan at first
 

@@ -1,0 +1,42 @@
+"""Missions the tier walk changed, end to end: behind a suspected surface that closes a
+corridor on a guess, the looser tier's whole plan is taken before the strict tier's long
+search (``domain/tier_walk.py``); before it, the robot spun and searched for minutes of model
+time and touched the hidden bar."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from app.executor.runner import MissionRunner
+from app.missions.spec import load_mission
+from primitives.library import Library, load_bundled
+
+EXAMPLES = Path(__file__).parents[2] / "examples"
+
+
+@pytest.fixture(scope="module")
+def library() -> Library:
+    return load_bundled()
+
+
+def test_the_goal_by_a_hidden_bar_is_reached_without_touching_it(library: Library) -> None:
+    spec = load_mission(EXAMPLES / "untuned" / "corridor-30-028-goal-by-hidden-bar.json")
+    runner = MissionRunner(spec, library)
+    result = runner.run()
+    assert result.status == "succeeded", result.reason
+    assert all(g.reached and g.error is not None and g.error <= g.tolerance for g in result.goals)
+    assert result.collisions == 0  # one contact before
+    assert result.model_time < 400.0  # 551 s before: three spins and four long searches
+
+
+def test_three_unordered_goals_in_hidden_clutter_touch_nothing_twice(library: Library) -> None:
+    spec = load_mission(EXAMPLES / "untuned3" / "three-unordered-hidden-clutter.json")
+    runner = MissionRunner(spec, library)
+    result = runner.run()
+    assert result.status == "succeeded", result.reason
+    touched = [i for _, i in runner.robot.truth_contacts]  # type: ignore[attr-defined]
+    known = {i for i, o in enumerate(spec.obstacles) if o.known} | {-1}  # -1: the arena wall
+    assert not [i for i in touched if i in known], touched
+    assert len(touched) == len(set(touched)), touched  # a hidden obstacle found once by touch
