@@ -44,6 +44,7 @@ BACK_OFF_STEPS = 2  # short library translations away from a contact before repl
 MAX_REPAIRS = 4  # local plan repairs in a row before the whole way is planned again
 MAX_RECOVERIES = 3  # recovery spins after a planning timeout before the mission fails
 SPIN_STEPS = 1  # turns of a recovery spin (each checked free before it runs)
+TURNS_BEFORE_LONG = 1  # recovery turns to sense before a long search (``TierWalk.plan``)
 
 
 @dataclass
@@ -125,27 +126,15 @@ class NavigationStrategy:
                 "no-primitives", f"body shape {s.shape} has no primitives in the library"
             )
         else:
-            world = s.world
             self.backoff = self._back_off(trigger, table) if isinstance(trigger, Contact) else []
             pose = np.asarray(s.pose, dtype=float)
             for entry in self.backoff:  # plan from where backing off will leave the robot
                 pose = compose(pose, np.asarray(entry.end_pose))
-            self.plan, self.clearance = self.tiers.plan(table, s, pose, cancel, remaining)
-            if self.plan.status in ("unreachable", "unsolvable", "timeout") and not s.deformed:
-                table = self._reshaped(table, s, pose, cancel) or table
-            self.repairs = self.repairs + 1 if self.plan.repaired else 0
-            if self.plan.solved and not self.plan.partial:
-                self.recoveries = 0
-            elif self.plan.status == "timeout" and self.recoveries < MAX_RECOVERIES:
-                # Nav2-style recovery: turn in place to sense around, then plan again.
-                spin = self._spin(table, s, world)
-                if spin:
-                    self.recoveries += 1
-                    self.backoff += spin
-                    self.plan = LatticePlan("solved", "recovery", partial=True)
+            table = self._plan(table, s, pose, cancel, remaining)
         self.table = table
         latency = (time.perf_counter() - t0) * 1e3
         plan = self.plan
+        assert plan is not None  # both branches above set it
         record = ReplanRecord(
             trigger.kind, trigger.detail(), round(s.t, 3), latency, old, plan.pddl_plan, plan.status
         )
@@ -169,6 +158,43 @@ class NavigationStrategy:
             plan.pddl_plan,
             plan.release,
         )
+
+    def _plan(
+        self,
+        table: MotionTable,
+        s: Situation,
+        pose: Any,
+        cancel: CancelFlag | None,
+        remaining: Sequence[LatticeAction],
+    ) -> MotionTable:
+        """Plans from ``pose`` (``self.plan``, kept against ``self.clearance``); returns the
+        table of the shape it runs on. When no tier finds a way near, the robot turns in place
+        to sense (Nav2-style recovery) before any tier searches long (``TURNS_BEFORE_LONG``);
+        after a long search that finds none either, it turns again, up to ``MAX_RECOVERIES``
+        times, and the timeout then stands. A shape that finds no plan tries the others first
+        (``_reshaped``)."""
+        long = self.recoveries >= TURNS_BEFORE_LONG
+        self.plan, self.clearance = self.tiers.plan(table, s, pose, cancel, remaining, long=long)
+        spin: list[Primitive] = []
+        if self.plan.status == "timeout" and not long:
+            spin = self._spin(table, s)
+            if not spin:  # no free turn to sense with: search long at once
+                long = True
+                self.plan, self.clearance = self.tiers.plan(table, s, pose, cancel, remaining)
+        status = self.plan.status
+        gave_up = status in ("unreachable", "unsolvable") or (status == "timeout" and long)
+        if gave_up and not s.deformed:
+            table = self._reshaped(table, s, pose, cancel) or table
+        self.repairs = self.repairs + 1 if self.plan.repaired else 0
+        if self.plan.solved and not self.plan.partial:
+            self.recoveries = 0
+        elif self.plan.status == "timeout" and self.recoveries < MAX_RECOVERIES:
+            spin = spin or self._spin(table, s)
+            if spin:
+                self.recoveries += 1
+                self.backoff += spin
+                self.plan = LatticePlan("solved", "recovery", partial=True)
+        return table
 
     def _reshaped(
         self,
@@ -327,7 +353,7 @@ class NavigationStrategy:
         grounded = ground((float(d[0]), float(d[1]), 0.0), basis)
         return Running(action, grounded, grounded.duration)
 
-    def _spin(self, table: MotionTable, s: Situation, world: Any) -> list[Primitive]:
+    def _spin(self, table: MotionTable, s: Situation) -> list[Primitive]:
         """The largest library turn whose swept footprint keeps the planning margin from the
         robot's state (the state the real pose snaps to)."""
         key = self.planner.key_of(table, s.pose)

@@ -9,7 +9,8 @@ that none is near. Before its long search (up to ``SEARCH_AGAIN`` expansions), t
 tiers' short searches are asked for a whole plan: behind a suspected surface that closes a
 corridor on a guess, the long search of the strict tier used to spend 40,000 expansions
 (0.3-0.5 s) failing, and the robot then spun in place to sense up to three times before the
-looser tier was tried at all.
+looser tier was tried at all. The strategy asks for long searches only after a turn to
+sense (``NavigationStrategy._plan``).
 """
 
 from __future__ import annotations
@@ -50,11 +51,15 @@ class TierWalk:
         pose: Any,
         cancel: CancelFlag | None,
         remaining: Sequence[LatticeAction] = (),
+        long: bool = True,
     ) -> tuple[LatticePlan, GridClearance]:
         """A lattice plan from ``pose`` (a repair of ``remaining``, the rest of the last plan,
         where one will do) and the clearance of the tier it keeps (what the plan guard checks
         it against). A timeout is returned when no tier found a plan and some tier ran out of
-        search: the robot turns to sense around instead of passing closer still."""
+        search: the robot turns to sense around instead of passing closer still. ``long``:
+        a tier whose short search finds nothing near (nor a looser tier a whole plan) searches
+        again, longer; without it that tier's timeout is the answer (the strategy turns to
+        sense first: a long search on what one look showed mostly searches in vain)."""
         world = s.world
         plan = LatticePlan("unsolvable")
         goals = tuple((g.x, g.y) for g in s.goals)
@@ -68,7 +73,8 @@ class TierWalk:
             # exhausted lattice, ``unsolvable``, from ``unreachable``)
             closed = (table.shape, tier)
             doubt = closed in self._closed and bool(looser)
-            for quick in (True, False) if looser else (False,):
+            searches = (True, False) if long else (True,)  # quick, then long
+            for quick in searches if looser else searches[-1:]:
                 plan = self._ask(
                     table, s, pose, cancel, tier, clearance, quick, remaining, reachable, doubt
                 )

@@ -1,5 +1,6 @@
 """The tier walk: a tier whose short search finds nothing closer asks the looser tiers' short
-searches for a whole plan before its own long search; the last tier searches long at once."""
+searches for a whole plan before its own long search, and long searches wait for a turn to
+sense (``NavigationStrategy._plan``)."""
 
 from __future__ import annotations
 
@@ -75,6 +76,7 @@ def test_a_partial_looser_plan_does_not_give_up_the_stricter_tier(
     strict = LatticePlan("solved", "long search")
     answers = {("off-goals/0.1", True): partial, ("all/0.1", False): strict}
     strategy, asked = walk(monkeypatch, answers)
+    strategy.recoveries = 1  # after a turn to sense: long searches are allowed
     strategy.replan(situation(), Initial())
     assert strategy.plan is strict
     assert asked == [
@@ -84,18 +86,35 @@ def test_a_partial_looser_plan_does_not_give_up_the_stricter_tier(
     ]
 
 
-def test_when_no_tier_finds_one_the_robot_turns_to_sense(
+def test_when_no_tier_finds_one_near_the_robot_turns_to_sense_before_searching_long(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     strategy, asked = walk(monkeypatch, {})
     strategy.replan(situation(), Initial())
-    assert asked[-1] == ("all/0.1", False)  # the strict tier's long search timed out too
-    assert strategy.plan is not None and strategy.plan.reason == "recovery"  # a spin
+    assert asked == [(name(t), True) for t in TIERS]  # short searches only
+    assert strategy.plan is not None and strategy.plan.reason == "recovery"  # a turn
+    assert strategy.backoff and all(e.turn != 0.0 for e in strategy.backoff)
+    asked.clear()
+    strategy.replan(situation(), Initial())  # after the turn: the strict tier searches long
+    assert asked == [("all/0.1", True), *((name(t), True) for t in TIERS[1:]), ("all/0.1", False)]
+    assert strategy.plan is not None and strategy.plan.reason == "recovery"  # and turns again
+    assert strategy.recoveries == 2
+
+
+def test_without_a_free_turn_the_long_search_comes_at_once(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    strategy, asked = walk(monkeypatch, {})
+    monkeypatch.setattr(strategy, "_spin", lambda *a: [])
+    strategy.replan(situation(), Initial())
+    assert ("all/0.1", False) in asked
+    assert strategy.plan is not None and strategy.plan.status == "timeout"
 
 
 def test_the_last_tier_searches_long_at_once(monkeypatch: pytest.MonkeyPatch) -> None:
     unreachable = LatticePlan("unreachable", "unreachable: stand-in")
     answers = {(name(t), q): unreachable for t in TIERS[:-1] for q in (True, False)}
     strategy, asked = walk(monkeypatch, answers)
+    strategy.recoveries = 1
     strategy.replan(situation(), Initial())
     assert asked == [*((name(t), True) for t in TIERS[:-1]), ("none/0.02", False)]
