@@ -7,9 +7,9 @@ import time
 from dataclasses import dataclass, field
 
 from domain.goal_order import LegGoal
-from domain.lattice import Key
+from domain.lattice import Key, LatticeGrid, MotionTable
 from domain.lattice_pddl import LatticeGraph, lattice_problem
-from domain.lattice_task import LatticeTask
+from domain.lattice_task import LatticeTask, primitive_name
 from domain.pddl import Problem
 from domain.pyperplan_adapter import PlanResult
 
@@ -99,3 +99,30 @@ def search_failed(
             f"{expansions:,} expansions or {time_limit:g} s"
         )
     return f"planning {result.status}"
+
+
+def plan_actions(
+    grid: LatticeGrid, task: LatticeTask, table: MotionTable, names: list[str]
+) -> tuple[list[LatticeAction], Key]:
+    """A leg's searched operator names (``task``'s) as plan actions, and the state it ends in."""
+    by_name = {primitive_name(m.primitive): i for i, m in enumerate(table.motions)}
+    here = task.start_key
+    out = []
+    for name in names:
+        verb, *args = name.strip("()").split()
+        if verb == "move":
+            source, here = here, grid.decode(int(args[1][1:]))
+            m = by_name[args[2]]
+            motion = table.motions[m]
+            pose = table.pose_of_centroid(grid.centre(here[0], here[1]), here[2])
+            target = (float(pose[0]), float(pose[1]), float(pose[2]))
+            out.append(
+                LatticeAction(
+                    "move", name, motion.primitive, target, motion.duration, None, source, m
+                )
+            )
+        else:
+            pose = table.pose_of_centroid(grid.centre(here[0], here[1]), here[2])
+            target = (float(pose[0]), float(pose[1]), float(pose[2]))
+            out.append(LatticeAction("visit", name, None, target, 0.0, task.goal_index))
+    return out, here

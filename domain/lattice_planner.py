@@ -13,24 +13,28 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Hashable, Sequence
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from domain import lattice_search
 from domain.goal_order import LegGoal, order_goals
 from domain.lattice import Key, LatticeGrid, LatticeSettings, MotionTable
 from domain.lattice_cache import MotionCache
 from domain.lattice_distances import centroid_need, distance_map
 from domain.lattice_doubt import apart, within_one_motion
 from domain.lattice_entry import goal_entered
-from domain.lattice_heuristic import LatticeHeuristic
-from domain.lattice_plan import LatticeAction, LatticePlan, search_failed, unreachable
+from domain.lattice_plan import (
+    LatticeAction,
+    LatticePlan,
+    plan_actions,
+    search_failed,
+    unreachable,
+)
 from domain.lattice_reach import Reachability
 from domain.lattice_repair import PlanRepairer, leg_reach
-from domain.lattice_states import StatePool, no_cycle_collection
-from domain.lattice_task import Clearance, LatticeTask, primitive_name
+from domain.lattice_states import StatePool
+from domain.lattice_task import Clearance, LatticeTask
+from domain.leg_search import search_leg
 from domain.pyperplan_adapter import (
     HEURISTICS,
     SEARCHES,
@@ -49,13 +53,6 @@ SEARCH_AGAIN = 40_000  # expansions of the search that follows when nothing got 
 # time limit stays a safety net; a budget, so a faster machine does not plan differently)
 MOTION_CACHES = 12  # motion caches kept (one per shape and clearance family); the least
 # recently used goes first (each holds up to ``lattice_cache.COMPILED_LIMIT`` states)
-
-
-@dataclass(frozen=True)
-class _Root:
-    """A stand-in search node for evaluating the heuristic at a state."""
-
-    state: frozenset[Any]
 
 
 class LatticePlanner:
@@ -348,64 +345,14 @@ class LatticePlanner:
         return cache
 
     def _search(self, task: LatticeTask, distances: Array) -> PlanResult:
-        """pyperplan's search on the leg. When time runs out, the path to the most promising
-        state seen (by the lattice heuristic) is returned as a ``partial`` plan: the robot
-        goes there, senses more, and plans again."""
-        t0 = time.monotonic()
-        lattice_h = LatticeHeuristic(task, distances, task.table.longest_step)
-        try:
-            if self.heuristic == "lattice":
-                h: Any = lattice_h
-            else:
-                with no_cycle_collection(freeze_after=True):  # millions of objects, no cycles
-                    task.ground_all()  # pyperplan's own heuristics need every operator
-                    h = HEURISTICS[self.heuristic](task)
-            search = SEARCHES[self.search]
-            if self.search == "gbf" and lattice_search.applies(task, h):
-                plan = lattice_search.search(task, h)  # the same plan, compiled
-            else:
-                with no_cycle_collection(), task.search_reached(search):
-                    plan = search(task, h) if self.search != "bfs" else search(task)
-        except SearchStopped as stop:
-            ms = (time.monotonic() - t0) * 1e3
-            best = lattice_h.best
-            start_h = lattice_h(_Root(task.initial_state))
-            if stop.status == "timeout" and best is not None and best[0] < start_h - 1.0:
-                names = [op.name for op in best[1].extract_solution()]
-                return PlanResult("solved", names, ms, task.expansions, "partial")
-            return PlanResult(
-                stop.status, [], ms, task.expansions, f"search {stop.status} after {ms:.0f} ms"
-            )
-        ms = (time.monotonic() - t0) * 1e3
-        if plan is None:
-            return PlanResult("unsolvable", [], ms, task.expansions, "no plan")
-        return PlanResult("solved", [op.name for op in plan], ms, task.expansions)
+        """One leg's search (``domain/leg_search.py``)."""
+        return search_leg(task, distances, self.search, self.heuristic)
 
     def actions_of(
         self, task: LatticeTask, table: MotionTable, names: list[str]
     ) -> tuple[list[LatticeAction], Key]:
         """A searched plan's operator names as plan actions, and the state it ends in."""
-        by_name = {primitive_name(m.primitive): i for i, m in enumerate(table.motions)}
-        here = task.start_key
-        out = []
-        for name in names:
-            verb, *args = name.strip("()").split()
-            if verb == "move":
-                source, here = here, self.grid.decode(int(args[1][1:]))
-                m = by_name[args[2]]
-                motion = table.motions[m]
-                pose = self.pose_of(table, here)
-                target = (float(pose[0]), float(pose[1]), float(pose[2]))
-                out.append(
-                    LatticeAction(
-                        "move", name, motion.primitive, target, motion.duration, None, source, m
-                    )
-                )
-            else:
-                pose = self.pose_of(table, here)
-                target = (float(pose[0]), float(pose[1]), float(pose[2]))
-                out.append(LatticeAction("visit", name, None, target, 0.0, task.goal_index))
-        return out, here
+        return plan_actions(self.grid, task, table, names)
 
     def _apart(
         self,

@@ -1,0 +1,59 @@
+"""One leg's search on the lattice: pyperplan's (or the compiled equivalent), with a partial
+plan towards the most promising state seen when the budget runs out."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from typing import Any
+
+from domain import lattice_search
+from domain.lattice_heuristic import LatticeHeuristic
+from domain.lattice_states import no_cycle_collection
+from domain.lattice_task import LatticeTask
+from domain.pyperplan_adapter import HEURISTICS, SEARCHES, PlanResult, SearchStopped
+from sim.robot import Array
+
+
+@dataclass(frozen=True)
+class _Root:
+    """A stand-in search node for evaluating the heuristic at a state."""
+
+    state: frozenset[Any]
+
+
+def search_leg(task: LatticeTask, distances: Array, search: str, heuristic: str) -> PlanResult:
+    """pyperplan's ``search`` (a name of ``SEARCHES``) on the leg, guided by ``heuristic``
+    (``"lattice"``: the footprint-aware distance map ``distances``; else a name of
+    ``HEURISTICS``). When the budget or time runs out, the path to the most promising state
+    seen (by the lattice heuristic) is returned as a ``partial`` plan if it got closer: the
+    robot goes there, senses more, and plans again."""
+    t0 = time.monotonic()
+    lattice_h = LatticeHeuristic(task, distances, task.table.longest_step)
+    try:
+        if heuristic == "lattice":
+            h: Any = lattice_h
+        else:
+            with no_cycle_collection(freeze_after=True):  # millions of objects, no cycles
+                task.ground_all()  # pyperplan's own heuristics need every operator
+                h = HEURISTICS[heuristic](task)
+        run = SEARCHES[search]
+        if search == "gbf" and lattice_search.applies(task, h):
+            plan = lattice_search.search(task, h)  # the same plan, compiled
+        else:
+            with no_cycle_collection(), task.search_reached(run):
+                plan = run(task, h) if search != "bfs" else run(task)
+    except SearchStopped as stop:
+        ms = (time.monotonic() - t0) * 1e3
+        best = lattice_h.best
+        start_h = lattice_h(_Root(task.initial_state))
+        if stop.status == "timeout" and best is not None and best[0] < start_h - 1.0:
+            names = [op.name for op in best[1].extract_solution()]
+            return PlanResult("solved", names, ms, task.expansions, "partial")
+        return PlanResult(
+            stop.status, [], ms, task.expansions, f"search {stop.status} after {ms:.0f} ms"
+        )
+    ms = (time.monotonic() - t0) * 1e3
+    if plan is None:
+        return PlanResult("unsolvable", [], ms, task.expansions, "no plan")
+    return PlanResult("solved", [op.name for op in plan], ms, task.expansions)
