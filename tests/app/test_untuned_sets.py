@@ -1,4 +1,4 @@
-"""The second and third untuned sets (examples/untuned2, examples/untuned3) are well-formed:
+"""The second to fourth untuned sets (examples/untuned2 to untuned4) are well-formed:
 every mission parses, declares what it expects, starts clear, and an expected success is
 solvable for the body's width while an expected `unreachable` really is cut off (the same
 free-space checks as examples/hard); each set covers what its README claims. Nothing here runs
@@ -17,7 +17,8 @@ from tests.app import test_hard_missions as hard
 EXAMPLES = Path(__file__).parents[2] / "examples"
 UNTUNED2 = sorted(EXAMPLES.joinpath("untuned2").glob("*.json"))
 UNTUNED3 = sorted(EXAMPLES.joinpath("untuned3").glob("*.json"))
-EVERY = [*UNTUNED2, *UNTUNED3]
+UNTUNED4 = sorted(EXAMPLES.joinpath("untuned4").glob("*.json"))
+EVERY = [*UNTUNED2, *UNTUNED3, *UNTUNED4]
 
 
 def name(path: Path) -> str:
@@ -47,6 +48,21 @@ def test_the_third_set_covers_what_it_claims() -> None:
     assert sum(1 for s in specs for e in s.events if e.type == "deform") == 1
     assert any(s.order == "any" and len(s.goals) >= 3 for s in specs)
     assert any(s.bounds.xmax - s.bounds.xmin >= 15 for s in specs)
+    unreachable = [s for s in specs if s.expect and s.expect.reason == "unreachable"]
+    assert len(unreachable) == 1
+
+
+def test_the_fourth_set_covers_what_it_claims() -> None:
+    specs = [hard.spec(p) for p in UNTUNED4]
+    assert 10 <= len(specs) <= 12
+    assert len({s.name for s in specs}) == len(specs)
+    assert any(s.sensors.noise >= 0.05 for s in specs)
+    assert sum(1 for s in specs for e in s.events if e.type == "deform") == 1
+    assert any(s.order == "any" and len(s.goals) >= 3 for s in specs)
+    assert any(s.bounds.xmax - s.bounds.xmin >= 16 for s in specs)
+    # corridors of 0.28-0.32 m (two known bands each) at new angles
+    corridors = [s for s in specs if sum(1 for o in s.obstacles if o.known) == 2]
+    assert len(corridors) >= 4
     unreachable = [s for s in specs if s.expect and s.expect.reason == "unreachable"]
     assert len(unreachable) == 1
 
