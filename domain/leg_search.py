@@ -11,7 +11,14 @@ from domain import lattice_search
 from domain.lattice_heuristic import LatticeHeuristic
 from domain.lattice_states import no_cycle_collection
 from domain.lattice_task import LatticeTask
-from domain.pyperplan_adapter import HEURISTICS, SEARCHES, PlanResult, SearchStopped
+from domain.pyperplan_adapter import (
+    HEURISTICS,
+    SEARCHES,
+    PlanResult,
+    SearchStopped,
+    finished,
+    stopped,
+)
 from sim.robot import Array
 
 
@@ -44,16 +51,11 @@ def search_leg(task: LatticeTask, distances: Array, search: str, heuristic: str)
             with no_cycle_collection(), task.search_reached(run):
                 plan = run(task, h) if search != "bfs" else run(task)
     except SearchStopped as stop:
-        ms = (time.monotonic() - t0) * 1e3
         best = lattice_h.best
         start_h = lattice_h(_Root(task.initial_state))
         if stop.status == "timeout" and best is not None and best[0] < start_h - 1.0:
             names = [op.name for op in best[1].extract_solution()]
+            ms = (time.monotonic() - t0) * 1e3
             return PlanResult("solved", names, ms, task.expansions, "partial")
-        return PlanResult(
-            stop.status, [], ms, task.expansions, f"search {stop.status} after {ms:.0f} ms"
-        )
-    ms = (time.monotonic() - t0) * 1e3
-    if plan is None:
-        return PlanResult("unsolvable", [], ms, task.expansions, "no plan")
-    return PlanResult("solved", [op.name for op in plan], ms, task.expansions)
+        return stopped(stop, t0, task.expansions)
+    return finished(plan, t0, task.expansions)

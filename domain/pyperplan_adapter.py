@@ -228,14 +228,22 @@ def search_task(
             h = HEURISTICS[heuristic](task) if isinstance(heuristic, str) else heuristic(task)
             plan = SEARCHES[search](task, h)
     except SearchStopped as stop:
-        ms = (time.monotonic() - started) * 1e3
-        return PlanResult(
-            stop.status, [], ms, task.expansions, f"search {stop.status} after {ms:.0f} ms"
-        )
+        return stopped(stop, started, task.expansions)
+    return finished(plan, started, task.expansions)
+
+
+def stopped(stop: SearchStopped, started: float, expansions: int) -> PlanResult:
+    """The result of a search stopped by its deadline, budget or a cancel."""
+    ms = (time.monotonic() - started) * 1e3
+    return PlanResult(stop.status, [], ms, expansions, f"search {stop.status} after {ms:.0f} ms")
+
+
+def finished(plan: Sequence[Operator] | None, started: float, expansions: int) -> PlanResult:
+    """The result of a search that ran to its end (``plan``: its operators, or ``None``)."""
     ms = (time.monotonic() - started) * 1e3
     if plan is None:
-        return PlanResult("unsolvable", [], ms, task.expansions, "no plan reaches the goal")
-    return PlanResult("solved", [op.name for op in plan], ms, task.expansions)
+        return PlanResult("unsolvable", [], ms, expansions, "no plan reaches the goal")
+    return PlanResult("solved", [op.name for op in plan], ms, expansions)
 
 
 def plan_pddl(

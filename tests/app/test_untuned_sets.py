@@ -11,7 +11,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.missions.spec import DropoutEvent
+from app.missions.spec import DropoutEvent, MissionSpec
 from tests.app import test_hard_missions as hard
 
 EXAMPLES = Path(__file__).parents[2] / "examples"
@@ -40,31 +40,31 @@ def test_the_second_set_covers_what_it_claims() -> None:
     assert len(unreachable) >= 2
 
 
-def test_the_third_set_covers_what_it_claims() -> None:
-    specs = [hard.spec(p) for p in UNTUNED3]
+def twelve_claims(paths: list[Path], noise: float, width: float) -> list[MissionSpec]:
+    """What the third and fourth sets both claim: 10-12 distinct missions, range noise up to
+    ``noise``, one deformation, three unordered goals, an arena ``width`` m wide, and one
+    goal no shape reaches; returns the specs."""
+    specs = [hard.spec(p) for p in paths]
     assert 10 <= len(specs) <= 12
     assert len({s.name for s in specs}) == len(specs)
-    assert any(s.sensors.noise >= 0.04 for s in specs)
+    assert any(s.sensors.noise >= noise for s in specs)
     assert sum(1 for s in specs for e in s.events if e.type == "deform") == 1
     assert any(s.order == "any" and len(s.goals) >= 3 for s in specs)
-    assert any(s.bounds.xmax - s.bounds.xmin >= 15 for s in specs)
+    assert any(s.bounds.xmax - s.bounds.xmin >= width for s in specs)
     unreachable = [s for s in specs if s.expect and s.expect.reason == "unreachable"]
     assert len(unreachable) == 1
+    return specs
+
+
+def test_the_third_set_covers_what_it_claims() -> None:
+    twelve_claims(UNTUNED3, 0.04, 15)
 
 
 def test_the_fourth_set_covers_what_it_claims() -> None:
-    specs = [hard.spec(p) for p in UNTUNED4]
-    assert 10 <= len(specs) <= 12
-    assert len({s.name for s in specs}) == len(specs)
-    assert any(s.sensors.noise >= 0.05 for s in specs)
-    assert sum(1 for s in specs for e in s.events if e.type == "deform") == 1
-    assert any(s.order == "any" and len(s.goals) >= 3 for s in specs)
-    assert any(s.bounds.xmax - s.bounds.xmin >= 16 for s in specs)
+    specs = twelve_claims(UNTUNED4, 0.05, 16)
     # corridors of 0.28-0.32 m (two known bands each) at new angles
     corridors = [s for s in specs if sum(1 for o in s.obstacles if o.known) == 2]
     assert len(corridors) >= 4
-    unreachable = [s for s in specs if s.expect and s.expect.reason == "unreachable"]
-    assert len(unreachable) == 1
 
 
 @pytest.mark.parametrize("path", EVERY, ids=name)
