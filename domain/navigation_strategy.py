@@ -177,10 +177,12 @@ class NavigationStrategy:
         self.plan, self.clearance = self.tiers.plan(table, s, pose, cancel, remaining, long=long)
         spin: list[Primitive] = []
         if self.plan.status == "timeout" and not long:
-            spin = self._spin(table, s)
+            spin = self._spin(table, pose)
             if not spin:  # no free turn to sense with: search long at once
                 long = True
-                self.plan, self.clearance = self.tiers.plan(table, s, pose, cancel, remaining)
+                self.plan, self.clearance = self.tiers.plan(
+                    table, s, pose, cancel, remaining, probed=True
+                )
         status = self.plan.status
         gave_up = status in ("unreachable", "unsolvable") or (status == "timeout" and long)
         if gave_up and not s.deformed:
@@ -189,7 +191,7 @@ class NavigationStrategy:
         if self.plan.solved and not self.plan.partial:
             self.recoveries = 0
         elif self.plan.status == "timeout" and self.recoveries < MAX_RECOVERIES:
-            spin = spin or self._spin(table, s)
+            spin = spin or self._spin(table, pose)
             if spin:
                 self.recoveries += 1
                 self.backoff += spin
@@ -223,7 +225,7 @@ class NavigationStrategy:
                 continue
             if not self.tiers.may_reach(other, s, pose, cancel):
                 continue  # not even the loosest tier lets this body through: skip its searches
-            plan, self.clearance = self.tiers.plan(other, s, pose, cancel)
+            plan, kept = self.tiers.plan(other, s, pose, cancel)
             if not plan.solved or plan.partial:
                 continue  # change shape only for a way all the way there
             target = (float(pose[0]), float(pose[1]), float(pose[2]))
@@ -235,7 +237,9 @@ class NavigationStrategy:
                 reshape_duration(table.joints, joints, TICK),
             )
             plan.actions.insert(0, change)
-            self.plan = plan
+            # (only a plan that runs changes what is guarded: a recovery turn after shapes
+            # that found none is checked against this shape's tier, not the last one tried)
+            self.plan, self.clearance = plan, kept
             return other
         return None
 
@@ -353,10 +357,11 @@ class NavigationStrategy:
         grounded = ground((float(d[0]), float(d[1]), 0.0), basis)
         return Running(action, grounded, grounded.duration)
 
-    def _spin(self, table: MotionTable, s: Situation) -> list[Primitive]:
+    def _spin(self, table: MotionTable, pose: Any) -> list[Primitive]:
         """The largest library turn whose swept footprint keeps the planning margin from the
-        robot's state (the state the real pose snaps to)."""
-        key = self.planner.key_of(table, s.pose)
+        state ``pose`` snaps to: where the turn runs, after any back-off from a contact (checked
+        at the touching pose, a turn free there may sweep what backing off moved towards)."""
+        key = self.planner.key_of(table, pose)
         margin = self.settings.margin
         task = LatticeTask(
             self.planner.grid, table, self.clearance, key, (0.0, 0.0), 0.0, margin, margin

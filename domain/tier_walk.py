@@ -52,6 +52,7 @@ class TierWalk:
         cancel: CancelFlag | None,
         remaining: Sequence[LatticeAction] = (),
         long: bool = True,
+        probed: bool = False,
     ) -> tuple[LatticePlan, GridClearance]:
         """A lattice plan from ``pose`` (a repair of ``remaining``, the rest of the last plan,
         where one will do) and the clearance of the tier it keeps (what the plan guard checks
@@ -59,13 +60,16 @@ class TierWalk:
         search: the robot turns to sense around instead of passing closer still. ``long``:
         a tier whose short search finds nothing near (nor a looser tier a whole plan) searches
         again, longer; without it that tier's timeout is the answer (the strategy turns to
-        sense first: a long search on what one look showed mostly searches in vain)."""
+        sense first: a long search on what one look showed mostly searches in vain). ``probed``:
+        a walk without ``long`` from this same pose and world found nothing; each tier searches
+        long at once (its long search begins with the same short search, and the looser tiers'
+        short searches found no whole plan then either)."""
         world = s.world
         plan = LatticePlan("unsolvable")
         goals = tuple((g.x, g.y) for g in s.goals)
         reachable = False  # in the first tier: so in every later one, which keeps less
         order = tiers(world.any_suspected())
-        clearance = tier_clearance(world, order[0], goals)
+        clearance = tier_clearance(world, order[0], goals)  # (``tiers`` is never empty)
         for n, tier in enumerate(order):
             clearance = tier_clearance(world, tier, goals)
             looser = order[n + 1 :]
@@ -74,6 +78,8 @@ class TierWalk:
             closed = (table.shape, tier)
             doubt = closed in self._closed and bool(looser)
             searches = (True, False) if long else (True,)  # quick, then long
+            if probed:
+                searches = (False,)
             for quick in searches if looser else searches[-1:]:
                 plan = self._ask(
                     table, s, pose, cancel, tier, clearance, quick, remaining, reachable, doubt

@@ -6,19 +6,22 @@ from __future__ import annotations
 
 from typing import Any
 
+import numpy as np
 import pytest
 
 from domain import tier_walk
 from domain.clearance_tiers import Tier
 from domain.goal_order import LegGoal
-from domain.lattice import LatticeSettings
+from domain.lattice import LatticeSettings, compose
 from domain.lattice_plan import LatticePlan
 from domain.lattice_planner import LatticePlanner
+from domain.lattice_task import LatticeTask
 from domain.navigation_strategy import NavigationStrategy
 from domain.strategy import Situation
-from domain.triggers import Initial
+from domain.triggers import Contact, Initial
 from domain.worldmodel import WorldModel
-from primitives.library import load_bundled
+from primitives.library import Primitive, load_bundled
+from sim.obstacles import Circle
 from sim.world import Bounds
 
 BOUNDS = Bounds(-3.0, 3.0, -3.0, 3.0)
@@ -107,7 +110,9 @@ def test_without_a_free_turn_the_long_search_comes_at_once(
     strategy, asked = walk(monkeypatch, {})
     monkeypatch.setattr(strategy, "_spin", lambda *a: [])
     strategy.replan(situation(), Initial())
-    assert ("all/0.1", False) in asked
+    # The short searches and the looser tiers' probes are not asked twice: the long search
+    # begins with the strict tier's short search itself.
+    assert asked == [*((name(t), True) for t in TIERS), ("all/0.1", False)]
     assert strategy.plan is not None and strategy.plan.status == "timeout"
 
 
@@ -118,3 +123,65 @@ def test_the_last_tier_searches_long_at_once(monkeypatch: pytest.MonkeyPatch) ->
     strategy.recoveries = 1
     strategy.replan(situation(), Initial())
     assert asked == [*((name(t), True) for t in TIERS[:-1]), ("none/0.02", False)]
+
+
+def free_turns(strategy: NavigationStrategy, pose: tuple[float, float, float]) -> set[str]:
+    """The library turns of the straight body that keep the margin from ``pose``'s state."""
+    table = strategy.table_for("straight", (0.0, 0.0, 0.0))
+    assert table is not None and strategy.clearance is not None
+    planner, margin = strategy.planner, strategy.settings.margin
+    key = planner.key_of(table, pose)
+    task = LatticeTask(
+        planner.grid, table, strategy.clearance, key, (0.0, 0.0), 0.0, margin, margin
+    )
+    moves = {table.motions[m].primitive for _, m in task.valid_motions(key)}
+    return {e.id for e in strategy.library.lattice("straight") if e.turn != 0.0 and e.id in moves}
+
+
+def test_a_recovery_turn_after_a_contact_is_free_where_it_runs(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    strategy, _ = walk(monkeypatch, {})  # no tier finds a way near: the robot turns
+    world = WorldModel(BOUNDS, [Circle(0.8, 0.1, 0.1)])
+    goals = situation().goals
+    s = Situation(0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), "straight", goals, False, world)
+    strategy.replan(s, Contact(0, "left", (0.0, 0.05)))
+    *back, turn = strategy.backoff
+    assert back and all(e.turn == 0.0 for e in back) and turn.turn != 0.0
+    # The turn runs after backing off from the touched side, so it must be free there (at the
+    # touching pose the largest turn is free, and from where it runs it sweeps the disc).
+    here = np.asarray(s.pose, dtype=float)
+    for entry in back:
+        here = compose(here, np.asarray(entry.end_pose))
+    assert turn.id in free_turns(strategy, (float(here[0]), float(here[1]), float(here[2])))
+
+
+def test_a_recovery_turn_after_shapes_that_found_no_plan_keeps_the_walks_clearance(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    strategy, _ = walk(monkeypatch, {})
+    monkeypatch.delattr(strategy, "_reshaped")  # the real reshape this time
+    monkeypatch.setattr(tier_walk, "tier_clearance", lambda w, tier, goals=(): name(tier))
+    monkeypatch.setattr(strategy.tiers, "may_reach", lambda *a: True)
+    monkeypatch.setattr("domain.navigation_strategy.reshape_clear", lambda *a: True)
+    planner_plan = strategy.planner.plan
+
+    def plan(table: Any, *args: Any, **kw: Any) -> LatticePlan:
+        if table.shape != "straight":  # every other shape: no tier reaches the goal
+            return LatticePlan("unreachable", "unreachable: stand-in")
+        return planner_plan(table, *args, **kw)
+
+    monkeypatch.setattr(strategy.planner, "plan", plan)
+    checked: list[Any] = []
+
+    def spin(table: Any, pose: Any) -> list[Primitive]:
+        checked.append(strategy.clearance)
+        return [strategy.library.get("lat-straight-rp45p0")]
+
+    monkeypatch.setattr(strategy, "_spin", spin)
+    strategy.recoveries = 1  # long searches: a timeout then tries the other shapes
+    strategy.replan(situation(), Initial())
+    assert strategy.plan is not None and strategy.plan.reason == "recovery"
+    # The turn is checked against the strict tier the walk ended in, not against the loosest
+    # tier of the last other shape tried (which passes contacts at 0.02 m).
+    assert checked == ["all/0.1"]
