@@ -187,6 +187,11 @@ class NavigationStrategy:
         gave_up = status in ("unreachable", "unsolvable") or (status == "timeout" and long)
         if gave_up and not s.deformed:
             table = self._reshaped(table, s, pose, cancel) or table
+        if cancel is not None and cancel.is_set() and self.plan.status != "cancelled":
+            # (cancelled between searches, e.g. before the looser tiers' probes: what the walk
+            # ended in is no answer, and no turn to sense is handed out for the mission to run)
+            self.plan = LatticePlan("cancelled", "planning cancelled")
+            return table
         self.repairs = self.repairs + 1 if self.plan.repaired else 0
         if self.plan.solved and not self.plan.partial:
             self.recoveries = 0

@@ -4,6 +4,7 @@ sense (``NavigationStrategy._plan``)."""
 
 from __future__ import annotations
 
+import threading
 from typing import Any
 
 import numpy as np
@@ -185,3 +186,15 @@ def test_a_recovery_turn_after_shapes_that_found_no_plan_keeps_the_walks_clearan
     # The turn is checked against the strict tier the walk ended in, not against the loosest
     # tier of the last other shape tried (which passes contacts at 0.02 m).
     assert checked == ["all/0.1"]
+
+
+def test_a_cancel_between_the_short_search_and_the_probes_hands_out_no_turn(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    strategy, asked = walk(monkeypatch, {})  # the strict tier's short search found none near
+    cancel = threading.Event()
+    cancel.set()  # and the mission was cancelled as it ended
+    out = strategy.replan(situation(), Initial(), cancel)
+    assert asked == [("all/0.1", True)]  # no looser tier is asked
+    assert not out.ok and out.record.status == "cancelled" and out.reason == "planning cancelled"
+    assert strategy.backoff == []  # no turn to sense is handed out
