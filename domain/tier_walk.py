@@ -96,7 +96,7 @@ class TierWalk:
                 self._closed.discard(closed)
             reachable = reachable or (n == 0 and plan.reachable)
             if plan.status not in ("unreachable", "unsolvable"):
-                break  # a timeout turns to sense around instead (``NavigationStrategy.replan``)
+                break  # a timeout turns to sense around instead (``NavigationStrategy._plan``)
         return plan, clearance
 
     def _whole_looser(

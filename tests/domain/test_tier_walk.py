@@ -198,3 +198,25 @@ def test_a_cancel_between_the_short_search_and_the_probes_hands_out_no_turn(
     assert asked == [("all/0.1", True)]  # no looser tier is asked
     assert not out.ok and out.record.status == "cancelled" and out.reason == "planning cancelled"
     assert strategy.backoff == []  # no turn to sense is handed out
+
+
+def test_after_a_turn_nothing_near_searches_long_until_a_whole_plan(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    answers: Answer = {}
+    strategy, asked = walk(monkeypatch, answers)
+    strategy.replan(situation(), Initial())  # nothing near: a turn first
+    assert strategy.recoveries == 1 and ("all/0.1", False) not in asked
+    answers[("all/0.1", True)] = LatticePlan("solved", "partial", partial=True)
+    strategy.replan(situation(), Initial())  # a partial plan runs: the count stays
+    assert strategy.plan is answers[("all/0.1", True)] and strategy.recoveries == 1
+    del answers[("all/0.1", True)]
+    asked.clear()
+    strategy.replan(situation(), Initial())  # nothing near again: long at once (README)
+    assert ("all/0.1", False) in asked and strategy.recoveries == 2
+    answers[("all/0.1", True)] = LatticePlan("solved", "whole")
+    strategy.replan(situation(), Initial())  # a whole plan starts the count again
+    del answers[("all/0.1", True)]
+    asked.clear()
+    strategy.replan(situation(), Initial())
+    assert ("all/0.1", False) not in asked and strategy.recoveries == 1
