@@ -12,6 +12,7 @@ from domain.lattice_pddl import LatticeGraph, lattice_problem
 from domain.lattice_task import LatticeTask, primitive_name
 from domain.pddl import Problem
 from domain.pyperplan_adapter import PlanResult
+from sim.robot import Array
 
 
 @dataclass(frozen=True)
@@ -101,11 +102,22 @@ def search_failed(
     return f"planning {result.status}"
 
 
+def state_pose(grid: LatticeGrid, table: MotionTable, key: Key) -> Array:
+    """The tracked-point pose (x, y, ψ) of ``table``'s body at lattice state ``key``."""
+    i, j, k = key
+    return table.pose_of_centroid(grid.centre(i, j), k)
+
+
 def plan_actions(
     grid: LatticeGrid, task: LatticeTask, table: MotionTable, names: list[str]
 ) -> tuple[list[LatticeAction], Key]:
     """A leg's searched operator names (``task``'s) as plan actions, and the state it ends in."""
     by_name = {primitive_name(m.primitive): i for i, m in enumerate(table.motions)}
+
+    def target(key: Key) -> tuple[float, float, float]:
+        x, y, psi = state_pose(grid, table, key)
+        return float(x), float(y), float(psi)
+
     here = task.start_key
     out = []
     for name in names:
@@ -114,15 +126,11 @@ def plan_actions(
             source, here = here, grid.decode(int(args[1][1:]))
             m = by_name[args[2]]
             motion = table.motions[m]
-            pose = table.pose_of_centroid(grid.centre(here[0], here[1]), here[2])
-            target = (float(pose[0]), float(pose[1]), float(pose[2]))
             out.append(
                 LatticeAction(
-                    "move", name, motion.primitive, target, motion.duration, None, source, m
+                    "move", name, motion.primitive, target(here), motion.duration, None, source, m
                 )
             )
         else:
-            pose = table.pose_of_centroid(grid.centre(here[0], here[1]), here[2])
-            target = (float(pose[0]), float(pose[1]), float(pose[2]))
-            out.append(LatticeAction("visit", name, None, target, 0.0, task.goal_index))
+            out.append(LatticeAction("visit", name, None, target(here), 0.0, task.goal_index))
     return out, here

@@ -28,6 +28,7 @@ from domain.lattice_plan import (
     LatticePlan,
     plan_actions,
     search_failed,
+    state_pose,
     unreachable,
 )
 from domain.lattice_reach import Reachability
@@ -97,8 +98,8 @@ class LatticePlanner:
         return i, j, k
 
     def pose_of(self, table: MotionTable, key: Key) -> Array:
-        i, j, k = key
-        return table.pose_of_centroid(self.grid.centre(i, j), k)
+        """The tracked-point pose of ``table``'s body at lattice state ``key``."""
+        return state_pose(self.grid, table, key)
 
     def distances(
         self,

@@ -69,7 +69,6 @@ class TierWalk:
         goals = tuple((g.x, g.y) for g in s.goals)
         reachable = False  # in the first tier: so in every later one, which keeps less
         order = tiers(world.any_suspected())
-        clearance = tier_clearance(world, order[0], goals)  # (``tiers`` is never empty)
         for n, tier in enumerate(order):
             clearance = tier_clearance(world, tier, goals)
             looser = order[n + 1 :]
