@@ -43,18 +43,47 @@ def distance_map(
     need: float,
     free: float,
     start: tuple[float, float] | None = None,
+    relaxed: bool = True,
 ) -> Array:
     """Geodesic distance (m) from ``goal`` to every cell over cells whose centre keeps
     ``need`` clear (``at_centres``: the clearance at ``grid.centres``; less the half-cell the
-    centroid may sit off a centre); cells within ``free`` of the goal (where the body reaches
-    the goal with its head) are passable."""
+    centroid may sit off a centre, unless not ``relaxed``); cells within ``free`` of the goal
+    (where the body reaches the goal with its head) are passable."""
     nx, ny, r = grid.nx, grid.ny, grid.settings.resolution
-    ok = at_centres >= need - r * math.sqrt(0.5)
+    ok = at_centres >= need - (r * math.sqrt(0.5) if relaxed else 0.0)
     ok |= _in_reach(grid, at_centres, goal, free)
     if start is not None:  # the robot is there: it may be touching what it just bumped into
         ok[cells_within(grid, start, START_FREE)] = True
     gi, gj = grid.cell(*goal)
     return geodesic(ok.reshape(nx, ny), [(gi, gj)], r)
+
+
+def turn_room(table: MotionTable) -> float:
+    """How far sideways the resting body's farthest point from the centroid moves in one
+    orientation step: the room a passage leaves the body to change its heading at all."""
+    farthest = max(float(np.max(np.hypot(p[:, 0], p[:, 1]))) for p in table.body_points)
+    return 2.0 * farthest * math.sin(table.settings.step / 2)
+
+
+def roomy_map(
+    grid: LatticeGrid,
+    at_centres: Array,
+    goal: tuple[float, float],
+    table: MotionTable,
+    margin: float,
+    free: float,
+    start: tuple[float, float],
+    relaxed: Array,
+) -> Array:
+    """The distance map of a way with room: over the cells whose centre keeps the centroid's
+    need, the margin and ``turn_room`` (not relaxed); every other cell ``relaxed`` (the usual
+    map) reaches costs that much more than any cell of the roomy way, so a greedy search takes
+    the roomy way where it has one and still finds any other."""
+    need = centroid_need(table) + margin + turn_room(table)
+    roomy = distance_map(grid, at_centres, goal, need, free, start, relaxed=False)
+    finite = np.isfinite(roomy)
+    out: Array = np.where(finite, roomy, relaxed + float(np.max(roomy[finite], initial=0.0)))
+    return out
 
 
 def _in_reach(

@@ -5,7 +5,10 @@ body centroid can occupy, scipy's csgraph) decides most unreachable goals at onc
 the cause (enclosed by known or by sensed obstacles); it is also the search heuristic and the
 goal-to-goal distance table that orders unordered goals (no state-space product over goals).
 Each leg (current state to the head on the next goal) is one pyperplan search over a
-``LatticeTask``.
+``LatticeTask``. When the short search finds nothing closer, the map may have led it into a
+passage the centroid fits but the body cannot turn in (a bent slot, a gap beside a bar): a
+second short search follows a map of the ways with room to turn (``roomy_map``) before the
+leg ends in a timeout or searches long.
 """
 
 from __future__ import annotations
@@ -20,7 +23,7 @@ import numpy as np
 from domain.goal_order import LegGoal, order_goals
 from domain.lattice import Key, LatticeGrid, LatticeSettings, MotionTable
 from domain.lattice_cache import MotionCache
-from domain.lattice_distances import centroid_need, distance_map
+from domain.lattice_distances import centroid_need, distance_map, roomy_map
 from domain.lattice_doubt import apart, within_one_motion
 from domain.lattice_entry import goal_entered
 from domain.lattice_plan import (
@@ -75,6 +78,8 @@ class LatticePlanner:
         self.settings = settings
         self.search, self.heuristic, self.time_limit = search, heuristic, time_limit
         self._maps: dict[tuple[Any, ...], Array] = {}
+        # Whether the distance map guides the search (what a roomier map can change).
+        self._guided = heuristic == "lattice" and search != "bfs"
         self.reach_memory = ReachMemory(self.grid, settings.margin)
         self._motions: dict[tuple[Any, ...], MotionCache] = {}
         self.states = StatePool()  # search states shared by every search on this grid
@@ -123,6 +128,63 @@ class LatticePlanner:
                 start,
             )
         return self._maps[key]
+
+    def roomy_distances(
+        self,
+        table: MotionTable,
+        clearance: Clearance,
+        version: Any,
+        goal: LegGoal,
+        here: Key,
+        relaxed: Array,
+    ) -> Array:
+        """``roomy_map`` for a leg from ``here`` (``relaxed``: its usual distance map)."""
+        xy = tuple(float(v) for v in self.grid.centre(here[0], here[1]))
+        key = ("roomy", version, table.shape, goal.x, goal.y, xy)
+        if key not in self._maps:
+            if len(self._maps) > 64:
+                self._maps.clear()
+            self._maps[key] = roomy_map(
+                self.grid,
+                self.centre_clearance(clearance, version),
+                (goal.x, goal.y),
+                table,
+                self.settings.margin,
+                float(np.linalg.norm(table.offset)) + goal.tolerance,
+                (xy[0], xy[1]),
+                relaxed,
+            )
+        return self._maps[key]
+
+    def _roomy_search(
+        self,
+        table: MotionTable,
+        clearance: Clearance,
+        version: Any,
+        goal: LegGoal,
+        here: Key,
+        first: bool,
+        relaxed: Array,
+        deadline: float,
+        cancel: CancelFlag | None,
+        cache: MotionCache,
+    ) -> tuple[LatticeTask, PlanResult] | None:
+        """A whole leg found by a short search along the ways with room, when the usual map's
+        way from ``here`` is shorter (it passes where the body has no room to turn, so it may
+        be what the short search got lost in); ``None`` otherwise."""
+        roomy = self.roomy_distances(table, clearance, version, goal, here, relaxed)
+        i, j, _ = here
+        if not (
+            math.isfinite(roomy[i, j])
+            and roomy[i, j] > relaxed[i, j] + self.grid.settings.resolution
+        ):
+            return None  # no roomy way, or the same way: the same search again
+        task = self._leg(table, clearance, here, goal, first, deadline, cancel, cache)
+        task.budget = PARTIAL_AFTER
+        result = self._search(task, roomy)
+        if not result.solved or result.reason == "partial":
+            return None
+        return task, result
 
     def cut_off(
         self,
@@ -270,6 +332,16 @@ class LatticePlanner:
                     plan.reason = unreachable(table.shape, goal, started).reason
                     break
                 plan.reachable = plan.reachable or (leg == 0 and not known)
+            if result.status == "timeout" and self._guided and time.monotonic() < deadline:
+                roomy = self._roomy_search(
+                    table, clearance, version, goal, here, leg == 0, maps[goal.index],
+                    deadline, cancel, cache,
+                )  # fmt: skip
+                if roomy is not None:
+                    plan.expansions += task.expansions
+                    task, result = roomy
+                    if leg == 0:
+                        plan.task = task
             if result.status == "timeout" and not quick and time.monotonic() < deadline:
                 # Nothing closer to go to yet: search again, longer.
                 task = self._leg(table, clearance, here, goal, leg == 0, deadline, cancel, cache)
