@@ -23,9 +23,9 @@ import numpy as np
 from domain.goal_order import LegGoal, order_goals
 from domain.lattice import Key, LatticeGrid, LatticeSettings, MotionTable
 from domain.lattice_cache import MotionCache
-from domain.lattice_distances import centroid_need, distance_map, roomy_map
 from domain.lattice_doubt import apart, within_one_motion
 from domain.lattice_entry import goal_entered
+from domain.lattice_maps import PlannerMaps
 from domain.lattice_plan import (
     LatticeAction,
     LatticePlan,
@@ -77,13 +77,12 @@ class LatticePlanner:
         self.grid = LatticeGrid(bounds, settings)
         self.settings = settings
         self.search, self.heuristic, self.time_limit = search, heuristic, time_limit
-        self._maps: dict[tuple[Any, ...], Array] = {}
+        self.maps = PlannerMaps(self.grid)  # distance maps and clearances per world version
         # Whether the distance map guides the search (what a roomier map can change).
         self._guided = heuristic == "lattice" and search != "bfs"
         self.reach_memory = ReachMemory(self.grid, settings.margin)
         self._motions: dict[tuple[Any, ...], MotionCache] = {}
         self.states = StatePool()  # search states shared by every search on this grid
-        self._centres: tuple[Any, Array] | None = None
         self.repairer = PlanRepairer(
             self.grid,
             settings.margin,
@@ -106,56 +105,6 @@ class LatticePlanner:
         """The tracked-point pose of ``table``'s body at lattice state ``key``."""
         return state_pose(self.grid, table, key)
 
-    def distances(
-        self,
-        table: MotionTable,
-        clearance: Clearance,
-        version: Any,
-        goal: LegGoal,
-        start: tuple[float, float] | None = None,
-    ) -> Array:
-        key = (version, table.shape, goal.x, goal.y, start)
-        if key not in self._maps:
-            if len(self._maps) > 64:
-                self._maps.clear()
-            free = float(np.linalg.norm(table.offset)) + goal.tolerance
-            self._maps[key] = distance_map(
-                self.grid,
-                self.centre_clearance(clearance, version),
-                (goal.x, goal.y),
-                centroid_need(table),
-                free,
-                start,
-            )
-        return self._maps[key]
-
-    def roomy_distances(
-        self,
-        table: MotionTable,
-        clearance: Clearance,
-        version: Any,
-        goal: LegGoal,
-        here: Key,
-        relaxed: Array,
-    ) -> Array:
-        """``roomy_map`` for a leg from ``here`` (``relaxed``: its usual distance map)."""
-        xy = tuple(float(v) for v in self.grid.centre(here[0], here[1]))
-        key = ("roomy", version, table.shape, goal.x, goal.y, xy)
-        if key not in self._maps:
-            if len(self._maps) > 64:
-                self._maps.clear()
-            self._maps[key] = roomy_map(
-                self.grid,
-                self.centre_clearance(clearance, version),
-                (goal.x, goal.y),
-                table,
-                self.settings.margin,
-                float(np.linalg.norm(table.offset)) + goal.tolerance,
-                (xy[0], xy[1]),
-                relaxed,
-            )
-        return self._maps[key]
-
     def _roomy_search(
         self,
         table: MotionTable,
@@ -172,8 +121,12 @@ class LatticePlanner:
         """A whole leg found by a short search along the ways with room, when the usual map's
         way from ``here`` is shorter (it passes where the body has no room to turn, so it may
         be what the short search got lost in); ``None`` otherwise."""
-        roomy = self.roomy_distances(table, clearance, version, goal, here, relaxed)
         i, j, _ = here
+        xy = self.grid.centre(i, j)
+        start = (float(xy[0]), float(xy[1]))
+        roomy = self.maps.roomy(
+            table, clearance, version, goal, start, relaxed, self.settings.margin
+        )
         if not (
             math.isfinite(roomy[i, j])
             and roomy[i, j] > relaxed[i, j] + self.grid.settings.resolution
@@ -203,7 +156,7 @@ class LatticePlanner:
         return any(
             (cancel is not None and cancel.is_set())
             or not math.isfinite(
-                self.distances(table, clearance, version, g, (here[0], here[1]))[si, sj]
+                self.maps.distances(table, clearance, version, g, (here[0], here[1]))[si, sj]
             )
             for g in goals
         )
@@ -215,7 +168,7 @@ class LatticePlanner:
         answers for an earlier version of the same ``family`` of clearance (see ``plan``) are
         updated where the clearance changed rather than made afresh."""
         return self.reach_memory.get(
-            table, lambda: self.centre_clearance(clearance, version), version, family
+            table, lambda: self.maps.centre_clearance(clearance, version), version, family
         )
 
     # -- planning -----------------------------------------------------------------------------
@@ -269,7 +222,7 @@ class LatticePlanner:
                 done.search_ms = (time.monotonic() - started) * 1e3
                 return done
         cache = self.motion_cache(table, family)
-        cache.refresh(self.centre_clearance(clearance, version), version)
+        cache.refresh(self.maps.centre_clearance(clearance, version), version)
         start = self.key_of(table, pose)
         si, sj, _ = start
         here_xy = tuple(float(v) for v in self.grid.centre(si, sj))
@@ -277,7 +230,7 @@ class LatticePlanner:
         try:  # preparing is planning too: inside the time limit, and cancellable
             for g in goals:
                 stop_if_due(cancel, deadline)
-                maps[g.index] = self.distances(
+                maps[g.index] = self.maps.distances(
                     table, clearance, version, g, (here_xy[0], here_xy[1])
                 )
         except SearchStopped as stop:
@@ -292,7 +245,7 @@ class LatticePlanner:
             return done
         for g in goals:
             if not math.isfinite(maps[g.index][si, sj]):
-                return LatticePlan("unreachable", self._enclosed(table, g, pose, static))
+                return LatticePlan("unreachable", self.maps.enclosed(table, g, (si, sj), static))
         order = list(goals) if ordered else order_goals(self.grid, goals, maps, (si, sj))
         first = order[0]
         task = self._leg(table, clearance, start, first, True, deadline, cancel, cache)
@@ -392,15 +345,8 @@ class LatticePlanner:
         )
         task.deadline, task.cancel = deadline, cancel
         task.cache = cache
-        task.at_centres = self._centres[1] if self._centres is not None else None
+        task.at_centres = self.maps.at_centres
         return task
-
-    def centre_clearance(self, clearance: Clearance, version: Any) -> Array:
-        """The clearance at every cell centre for a world version (computed once per version:
-        the distance map, the heuristic and the motion cache all read it)."""
-        if self._centres is None or self._centres[0] != version:
-            self._centres = (version, clearance(self.grid.centres))
-        return self._centres[1]
 
     def motion_cache(self, table: MotionTable, family: Hashable = None) -> MotionCache:
         """The free motions of this shape's lattice kept between replans against clearances
@@ -447,17 +393,3 @@ class LatticePlanner:
         if leg > 0:
             return not answers.reaches(here, (goal.x, goal.y), task.reach)
         return apart(answers, here, goal, lambda: [k for k, _ in task.valid_motions(here)])
-
-    def _enclosed(
-        self,
-        table: MotionTable,
-        goal: LegGoal,
-        pose: Sequence[float],
-        static: tuple[Clearance, Any] | None,
-    ) -> str:
-        by = "known/sensed obstacles"
-        if static is not None:
-            si, sj, _ = self.key_of(table, pose)
-            known = self.distances(table, static[0], ("static", static[1]), goal)
-            by = "known obstacles" if not math.isfinite(known[si, sj]) else "sensed obstacles"
-        return f"unreachable: goal {goal.index} at ({goal.x:g}, {goal.y:g}) enclosed by {by}"
