@@ -40,7 +40,7 @@ def test_a_touching_start_is_searched_though_doubted() -> None:
     # What made the doubt wrong: the test, from the free configuration beside the start,
     # finds the goal apart; the first motion gets out anyway.
     planner = LatticePlanner(BOUNDS, SETTINGS)
-    at = planner.centre_clearance(world.clearance_at, world.version)
+    at = planner.maps.centre_clearance(world.clearance_at, world.version)
     test = Reachability(planner.grid, table, at, SETTINGS.margin)
     assert not test.reaches(planner.key_of(table, POSE), (GOAL.x, GOAL.y), 0.06, compiled=False)
     assert plan(doubt=True) == plan(doubt=False)

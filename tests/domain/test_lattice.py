@@ -283,7 +283,7 @@ def test_the_distance_map_does_not_leak_through_a_thin_wall_beside_the_goal() ->
     p, world, _ = plan(Bounds(-3, 3, -3, 3), wall, (-2.0, -2.0, 0.0), [(1.71, -0.5)])
     assert STRAIGHT is not None
     goal = LegGoal(0, 1.71, -0.5, 0.1)
-    dist = p.distances(STRAIGHT, world.clearance_at, world.version, goal)
+    dist = p.maps.distances(STRAIGHT, world.clearance_at, world.version, goal)
     behind = dist[p.grid.cell(1.3, -0.5)]
     beside = dist[p.grid.cell(1.9, -0.5)]
     assert beside < 0.3
