@@ -1,4 +1,4 @@
-"""The second to fourth untuned sets (examples/untuned2 to untuned4) are well-formed:
+"""The second to fifth untuned sets (examples/untuned2 to untuned5) are well-formed:
 every mission parses, declares what it expects, starts clear, and an expected success is
 solvable for the body's width while an expected `unreachable` really is cut off (the same
 free-space checks as examples/hard); each set covers what its README claims. Nothing here runs
@@ -12,13 +12,18 @@ import numpy as np
 import pytest
 
 from app.missions.spec import DropoutEvent, MissionSpec
+from domain.lattice_distances import geodesic
 from tests.app import test_hard_missions as hard
 
 EXAMPLES = Path(__file__).parents[2] / "examples"
 UNTUNED2 = sorted(EXAMPLES.joinpath("untuned2").glob("*.json"))
 UNTUNED3 = sorted(EXAMPLES.joinpath("untuned3").glob("*.json"))
 UNTUNED4 = sorted(EXAMPLES.joinpath("untuned4").glob("*.json"))
-EVERY = [*UNTUNED2, *UNTUNED3, *UNTUNED4]
+UNTUNED5 = sorted(EXAMPLES.joinpath("untuned5").glob("*.json"))
+EVERY = [*UNTUNED2, *UNTUNED3, *UNTUNED4, *UNTUNED5]
+# The fifth set's bent slots and dog-leg channels: a unit's disc passes them, a disc as wide
+# as the narrowest passage the body can turn in (0.28 m) does not.
+DOGLEGS = [p for p in UNTUNED5 if p.stem.startswith(("dogleg-", "arena-18m-", "two-unordered-"))]
 
 
 def name(path: Path) -> str:
@@ -65,6 +70,49 @@ def test_the_fourth_set_covers_what_it_claims() -> None:
     # corridors of 0.28-0.32 m (two known bands each) at new angles
     corridors = [s for s in specs if sum(1 for o in s.obstacles if o.known) == 2]
     assert len(corridors) >= 4
+
+
+def test_the_fifth_set_covers_what_it_claims() -> None:
+    specs = [hard.spec(p) for p in UNTUNED5]
+    assert len(specs) == 12
+    assert len({s.name for s in specs}) == len(specs)
+    assert any(s.sensors.noise >= 0.05 for s in specs)
+    assert any(s.order == "any" and len(s.goals) >= 2 for s in specs)
+    assert any(s.bounds.xmax - s.bounds.xmin >= 15 for s in specs)
+    unreachable = [s for s in specs if s.expect and s.expect.reason == "unreachable"]
+    assert len(unreachable) == 1
+    assert len(DOGLEGS) == 6
+    # the controls: straight corridors between two known bands (rectangles) that seal the arena
+    bands = [s for s in specs if sum(o.known and o.type == "rectangle" for o in s.obstacles) == 2]
+    assert len(bands) == 2
+
+
+def way(path: Path, radius: float) -> float:
+    """Length (m) of the shortest way from the start to the first goal for a disc of
+    ``radius`` on a 0.025 m raster (8-connected); ``inf`` when there is none."""
+    s = hard.spec(path)
+    b, res = s.bounds, 0.025
+    xs = np.arange(b.xmin + res / 2, b.xmax, res)
+    ys = np.arange(b.ymin + res / 2, b.ymax, res)
+    gx, gy = np.meshgrid(xs, ys, indexing="ij")
+    points = np.stack([gx.ravel(), gy.ravel()], axis=-1)
+    ok = hard.free(hard.world(s), points, radius).reshape(gx.shape)
+    cell = [int((s.start.x - b.xmin) / res), int((s.start.y - b.ymin) / res)]
+    goal = s.goals[0]
+    return float(
+        geodesic(ok, [(cell[0], cell[1])], res)[
+            int((goal.x - b.xmin) / res), int((goal.y - b.ymin) / res)
+        ]
+    )
+
+
+@pytest.mark.parametrize("path", DOGLEGS, ids=name)
+def test_a_dogleg_is_a_short_cut_a_wide_disc_cannot_take(path: Path) -> None:
+    """The fifth set's bent passages lie on the way a unit's disc takes to the first goal;
+    for a 0.28 m disc (narrower passages leave the body no room to turn) the way round is
+    2-6 m longer: what the README claims."""
+    narrow, wide = way(path, hard.DISC), way(path, 0.14)
+    assert 2.0 <= wide - narrow <= 6.0, (narrow, wide)
 
 
 @pytest.mark.parametrize("path", EVERY, ids=name)
