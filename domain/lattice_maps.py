@@ -72,11 +72,13 @@ class PlannerMaps:
         version: Any,
         goal: LegGoal,
         start: tuple[float, float],
+        origin: tuple[float, float],
         usual: Array,
         margin: float,
     ) -> Array:
-        """``roomy_map`` of a leg from ``start`` (``usual``: its distance map)."""
-        key = ("roomy", version, table.shape, goal.x, goal.y, start)
+        """``roomy_map`` of a leg from ``start`` (``usual``: its distance map, made with the
+        cells near ``origin``, the plan's start, passable: part of what the map is kept by)."""
+        key = ("roomy", version, table.shape, goal.x, goal.y, start, origin, margin)
         if key not in self._maps:
             at = self.centre_clearance(clearance, version)
             free = _goal_free(table, goal)

@@ -113,6 +113,7 @@ class LatticePlanner:
         goal: LegGoal,
         here: Key,
         first: bool,
+        origin: tuple[float, float],
         relaxed: Array,
         deadline: float,
         cancel: CancelFlag | None,
@@ -120,12 +121,14 @@ class LatticePlanner:
     ) -> tuple[LatticeTask, PlanResult] | None:
         """A whole leg found by a short search along the ways with room, when the usual map's
         way from ``here`` is shorter (it passes where the body has no room to turn, so it may
-        be what the short search got lost in); ``None`` otherwise."""
+        be what the short search got lost in); the cancelled search when a cancel stopped it
+        (the plan ends cancelled); ``None`` otherwise. ``relaxed``: the usual map, made with
+        the cells near the plan's start ``origin`` passable."""
         i, j, _ = here
         xy = self.grid.centre(i, j)
         start = (float(xy[0]), float(xy[1]))
         roomy = self.maps.roomy(
-            table, clearance, version, goal, start, relaxed, self.settings.margin
+            table, clearance, version, goal, start, origin, relaxed, self.settings.margin
         )
         if not (
             math.isfinite(roomy[i, j])
@@ -135,6 +138,8 @@ class LatticePlanner:
         task = self._leg(table, clearance, here, goal, first, deadline, cancel, cache)
         task.budget = PARTIAL_AFTER
         result = self._search(task, roomy)
+        if result.status == "cancelled":
+            return task, result
         if not result.solved or result.reason == "partial":
             return None
         return task, result
@@ -287,8 +292,8 @@ class LatticePlanner:
                 plan.reachable = plan.reachable or (leg == 0 and not known)
             if result.status == "timeout" and self._guided and time.monotonic() < deadline:
                 roomy = self._roomy_search(
-                    table, clearance, version, goal, here, leg == 0, maps[goal.index],
-                    deadline, cancel, cache,
+                    table, clearance, version, goal, here, leg == 0, (here_xy[0], here_xy[1]),
+                    maps[goal.index], deadline, cancel, cache,
                 )  # fmt: skip
                 if roomy is not None:
                     plan.expansions += task.expansions

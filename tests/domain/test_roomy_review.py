@@ -1,0 +1,70 @@
+"""The roomy search's edges (review of issue #15): a cancel during it ends the plan
+``cancelled``, and the roomy map kept for a leg is the one of the usual map it was made from."""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import pytest
+
+from domain.lattice import LatticeGrid
+from domain.lattice_distances import roomy_map
+from domain.lattice_maps import PlannerMaps
+from domain.lattice_planner import LatticePlanner
+from domain.lattice_task import LatticeTask
+from domain.pyperplan_adapter import PlanResult
+from sim.robot import Array
+from tests.domain.test_roomy_map import (
+    AT_SLOT,
+    BOUNDS,
+    GOAL,
+    SETTINGS,
+    STRAIGHT,
+    clearance,
+)
+
+
+def test_a_cancel_during_the_roomy_search_ends_the_short_plan_cancelled(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    planner = LatticePlanner(BOUNDS, SETTINGS, time_limit=120.0)
+    cancel = threading.Event()
+    searched = planner._search
+    calls: list[int] = []
+
+    def search(task: LatticeTask, distances: Array) -> PlanResult:
+        calls.append(task.budget)
+        if len(calls) == 2:  # the roomy search: the mission is cancelled while it runs
+            cancel.set()
+        return searched(task, distances)
+
+    monkeypatch.setattr(planner, "_search", search)
+    assert STRAIGHT is not None
+    plan = planner.plan(STRAIGHT, clearance, 0, AT_SLOT, (GOAL,), True, cancel, quick=True)
+    assert len(calls) == 2  # the short search, then the roomy one
+    assert plan.status == "cancelled", plan.reason
+
+
+def test_the_roomy_map_kept_for_a_leg_is_made_from_the_usual_map_it_is_asked_with() -> None:
+    # A later leg's roomy map starts where that leg starts; the usual map it adds to starts
+    # where the plan starts (its cells near there passable). Two plans from different places
+    # with the same world version and goal ask for the same leg's roomy map.
+    assert STRAIGHT is not None
+    grid = LatticeGrid(BOUNDS, SETTINGS)
+    maps = PlannerMaps(grid)
+    leg_start = (-1.0, 0.0)
+    version = 0
+    usual_a = maps.distances(STRAIGHT, clearance, version, GOAL, (AT_SLOT[0], AT_SLOT[1]))
+    usual_b = maps.distances(STRAIGHT, clearance, version, GOAL, (-1.5, -0.5))
+    assert not np.array_equal(usual_a, usual_b)  # the slot's mouth passable only in a's
+    margin = SETTINGS.margin
+    a, b = (AT_SLOT[0], AT_SLOT[1]), (-1.5, -0.5)
+    first = maps.roomy(STRAIGHT, clearance, version, GOAL, leg_start, a, usual_a, margin)
+    second = maps.roomy(STRAIGHT, clearance, version, GOAL, leg_start, b, usual_b, margin)
+    at = maps.centre_clearance(clearance, version)
+    free = float(np.linalg.norm(STRAIGHT.offset)) + GOAL.tolerance
+    goal = (GOAL.x, GOAL.y)
+    fresh = roomy_map(grid, at, goal, STRAIGHT, margin, free, leg_start, usual_b)
+    assert not np.array_equal(first, fresh)
+    assert np.array_equal(second, fresh)  # not the map made from the other plan's usual map
