@@ -78,10 +78,18 @@ def roomy_map(
     """The distance map of a way with room: over the cells whose centre keeps the centroid's
     need, the margin and ``turn_room`` (not relaxed); every other cell ``relaxed`` (the usual
     map) reaches costs that much more than any cell of the roomy way, so a greedy search takes
-    the roomy way where it has one and still finds any other."""
+    the roomy way where it has one and still finds any other. Where no cell with room is
+    passable but those always are (the goal's reach, the start's), the map would be
+    ``relaxed`` plus a constant, the same greedy search: it is ``relaxed`` itself."""
     need = centroid_need(table) + margin + turn_room(table)
     roomy = distance_map(grid, at_centres, goal, need, free, start, relaxed=False)
     finite = np.isfinite(roomy)
+    always = _in_reach(grid, at_centres, goal, free)
+    always[cells_within(grid, start, START_FREE)] = True
+    gi, gj = grid.cell(*goal)
+    always[gi * grid.ny + gj] = True
+    if not np.any(finite.ravel() & ~always):
+        return relaxed
     out: Array = np.where(finite, roomy, relaxed + float(np.max(roomy[finite], initial=0.0)))
     return out
 

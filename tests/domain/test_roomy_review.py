@@ -1,19 +1,24 @@
 """The roomy search's edges (review of issue #15): a cancel during it ends the plan
-``cancelled``, and the roomy map kept for a leg is the one of the usual map it was made from."""
+``cancelled``, the roomy map kept for a leg is the one of the usual map it was made from, and
+where no cell with room leads to the goal the short search is not run a second time."""
 
 from __future__ import annotations
 
+import math
 import threading
 
 import numpy as np
 import pytest
 
+from domain.goal_order import LegGoal
 from domain.lattice import LatticeGrid
-from domain.lattice_distances import roomy_map
+from domain.lattice_distances import centroid_need, distance_map, roomy_map
 from domain.lattice_maps import PlannerMaps
-from domain.lattice_planner import LatticePlanner
+from domain.lattice_planner import PARTIAL_AFTER, LatticePlanner
 from domain.lattice_task import LatticeTask
 from domain.pyperplan_adapter import PlanResult
+from domain.worldmodel import WorldModel
+from sim.obstacles import rectangle
 from sim.robot import Array
 from tests.domain.test_roomy_map import (
     AT_SLOT,
@@ -68,3 +73,50 @@ def test_the_roomy_map_kept_for_a_leg_is_made_from_the_usual_map_it_is_asked_wit
     fresh = roomy_map(grid, at, goal, STRAIGHT, margin, free, leg_start, usual_b)
     assert not np.array_equal(first, fresh)
     assert np.array_equal(second, fresh)  # not the map made from the other plan's usual map
+
+
+# A dead-end slot 0.3 m wide and 3 m deep, the goal at its end: the straight body fits it
+# lengthwise, and no cell with room to turn leads there.
+SLOT = [
+    rectangle(1.5, 0.2, 3.2, 0.1, 0.0),
+    rectangle(1.5, -0.2, 3.2, 0.1, 0.0),
+    rectangle(3.15, 0.0, 0.1, 0.5, 0.0),
+]
+IN_SLOT = LegGoal(0, 2.8, 0.0, 0.1)
+OUTSIDE = (-2.0, 0.0, 0.0)
+
+
+def slot_clearance(points: np.ndarray) -> np.ndarray:
+    out: np.ndarray = WorldModel(BOUNDS, SLOT).clearance_at(points)
+    return out
+
+
+def test_where_no_roomy_way_leads_to_the_goal_the_roomy_map_is_the_usual_one() -> None:
+    assert STRAIGHT is not None
+    grid = LatticeGrid(BOUNDS, SETTINGS)
+    at = slot_clearance(grid.centres)
+    goal, free = (IN_SLOT.x, IN_SLOT.y), float(np.linalg.norm(STRAIGHT.offset)) + IN_SLOT.tolerance
+    start = (OUTSIDE[0], OUTSIDE[1])
+    usual = distance_map(grid, at, goal, centroid_need(STRAIGHT), free, start)
+    assert math.isfinite(usual[grid.cell(*start)])
+    roomy = roomy_map(grid, at, goal, STRAIGHT, SETTINGS.margin, free, start, usual)
+    # (Before: the usual map plus a constant outside the goal's reach, a greedy search the
+    # same as the usual map's, again.)
+    assert np.array_equal(roomy, usual)
+
+
+def test_a_short_search_that_found_nothing_is_not_run_again_when_no_roomy_way_leads_there(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    planner = LatticePlanner(BOUNDS, SETTINGS, time_limit=120.0)
+    calls: list[int] = []
+
+    def search(task: LatticeTask, distances: Array) -> PlanResult:
+        calls.append(task.budget)  # a short search that found nothing closer (stand-in)
+        return PlanResult("timeout", [], 1.0, task.budget + 1, "search timeout")
+
+    monkeypatch.setattr(planner, "_search", search)
+    assert STRAIGHT is not None
+    plan = planner.plan(STRAIGHT, slot_clearance, 0, OUTSIDE, (IN_SLOT,), True, quick=True)
+    assert plan.status == "timeout"
+    assert calls == [PARTIAL_AFTER]  # the short search once, not the same search twice
