@@ -83,7 +83,8 @@ def roomy_map(
     ``relaxed`` plus a constant, the same greedy search: it is ``relaxed`` itself."""
     need = centroid_need(table) + margin + turn_room(table)
     roomy = distance_map(grid, at_centres, goal, need, free, start, relaxed=False)
-    finite = np.isfinite(roomy)
+    # (A later leg's start is not the one ``relaxed`` let through: what it cuts off stays so.)
+    finite = np.isfinite(roomy) & np.isfinite(relaxed)
     always = _in_reach(grid, at_centres, goal, free)
     always[cells_within(grid, start, START_FREE)] = True
     gi, gj = grid.cell(*goal)

@@ -120,3 +120,18 @@ def test_a_short_search_that_found_nothing_is_not_run_again_when_no_roomy_way_le
     plan = planner.plan(STRAIGHT, slot_clearance, 0, OUTSIDE, (IN_SLOT,), True, quick=True)
     assert plan.status == "timeout"
     assert calls == [PARTIAL_AFTER]  # the short search once, not the same search twice
+
+
+def test_a_later_legs_roomy_map_passes_no_cell_its_usual_map_cuts_off() -> None:
+    # A later leg starts where the last one ended; its usual map was made with the cells near
+    # the plan's start passable, the roomy one with those near the leg's start: by a wall
+    # there, the roomy map let cells through that the usual map cuts off.
+    assert STRAIGHT is not None
+    grid = LatticeGrid(BOUNDS, SETTINGS)
+    at = clearance(grid.centres)
+    goal, free = (GOAL.x, GOAL.y), float(np.linalg.norm(STRAIGHT.offset)) + GOAL.tolerance
+    usual = distance_map(grid, at, goal, centroid_need(STRAIGHT), free, (AT_SLOT[0], AT_SLOT[1]))
+    leg_start = (0.85, -0.6)  # by the pocket's east wall
+    roomy = roomy_map(grid, at, goal, STRAIGHT, SETTINGS.margin, free, leg_start, usual)
+    assert math.isfinite(usual[grid.cell(*leg_start)])
+    assert not np.any(np.isfinite(roomy) & ~np.isfinite(usual))
