@@ -1,6 +1,7 @@
 """The roomy search's edges (review of issue #15): a cancel during it ends the plan
-``cancelled``, the roomy map kept for a leg is the one of the usual map it was made from, and
-where no cell with room leads to the goal the short search is not run a second time."""
+``cancelled``; the maps kept are those of the usual map, the body's joints and the margin they
+were made from; a later leg's roomy map passes no cell its usual map cuts off; where no cell
+with room leads to the goal the short search is not run a second time."""
 
 from __future__ import annotations
 
@@ -11,7 +12,7 @@ import numpy as np
 import pytest
 
 from domain.goal_order import LegGoal
-from domain.lattice import LatticeGrid
+from domain.lattice import LatticeGrid, motion_table
 from domain.lattice_distances import centroid_need, distance_map, roomy_map
 from domain.lattice_maps import PlannerMaps
 from domain.lattice_planner import PARTIAL_AFTER, LatticePlanner
@@ -24,6 +25,7 @@ from tests.domain.test_roomy_map import (
     AT_SLOT,
     BOUNDS,
     GOAL,
+    LIB,
     SETTINGS,
     STRAIGHT,
     clearance,
@@ -135,3 +137,21 @@ def test_a_later_legs_roomy_map_passes_no_cell_its_usual_map_cuts_off() -> None:
     roomy = roomy_map(grid, at, goal, STRAIGHT, SETTINGS.margin, free, leg_start, usual)
     assert math.isfinite(usual[grid.cell(*leg_start)])
     assert not np.any(np.isfinite(roomy) & ~np.isfinite(usual))
+
+
+def test_the_maps_kept_for_a_shape_are_those_of_its_bodys_joints() -> None:
+    # The navigation strategy makes one motion table per shape and joints held to 0.05 rad:
+    # a straight body sensed bent (within the 0.15 rad its shape is named by) is another
+    # table, with another centroid's need and head offset.
+    bent = motion_table(LIB, "straight", (0.15, 0.15, 0.15), SETTINGS)
+    assert STRAIGHT is not None and bent is not None
+    assert centroid_need(bent) != centroid_need(STRAIGHT)
+    grid = LatticeGrid(BOUNDS, SETTINGS)
+    maps = PlannerMaps(grid)
+    start = (AT_SLOT[0], AT_SLOT[1])
+    maps.distances(STRAIGHT, clearance, 0, GOAL, start)
+    kept = maps.distances(bent, clearance, 0, GOAL, start)
+    at = maps.centre_clearance(clearance, 0)
+    free = float(np.linalg.norm(bent.offset)) + GOAL.tolerance
+    fresh = distance_map(grid, at, (GOAL.x, GOAL.y), centroid_need(bent), free, start)
+    assert np.array_equal(kept, fresh)
