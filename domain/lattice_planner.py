@@ -78,8 +78,9 @@ class LatticePlanner:
         self.settings = settings
         self.search, self.heuristic, self.time_limit = search, heuristic, time_limit
         self.maps = PlannerMaps(self.grid)  # distance maps and clearances per world version
-        # Whether the distance map guides the search (what a roomier map can change).
-        self._guided = heuristic == "lattice" and search != "bfs"
+        # Whether a roomy map can redirect the search: a greedy one led by the distance map (its
+        # extra cost on cells without room is a preference there; it would inflate an A*'s).
+        self._guided = heuristic == "lattice" and search == "gbf"
         self.reach_memory = ReachMemory(self.grid, settings.margin)
         self._motions: dict[tuple[Any, ...], MotionCache] = {}
         self.states = StatePool()  # search states shared by every search on this grid

@@ -5,6 +5,7 @@ the whole way round; the roomy map never prunes a cell the usual map passes."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -57,15 +58,21 @@ def test_turn_room_is_the_sideways_sweep_of_one_orientation_step() -> None:
     assert coarse is not None and turn_room(coarse) > 3.5 * room  # coarser turns need more
 
 
-def maps() -> tuple[LatticeGrid, np.ndarray, np.ndarray]:
+def both_maps(
+    clear: Callable[[np.ndarray], np.ndarray], goal: LegGoal, start: tuple[float, float]
+) -> tuple[LatticeGrid, np.ndarray, np.ndarray]:
+    """The usual and the roomy distance map of the straight body to ``goal`` from ``start``."""
     assert STRAIGHT is not None
     grid = LatticeGrid(BOUNDS, SETTINGS)
-    at = clearance(grid.centres)
-    goal, free = (GOAL.x, GOAL.y), float(np.linalg.norm(STRAIGHT.offset)) + GOAL.tolerance
-    start = (AT_SLOT[0], AT_SLOT[1])
-    usual = distance_map(grid, at, goal, centroid_need(STRAIGHT), free, start)
-    roomy = roomy_map(grid, at, goal, STRAIGHT, SETTINGS.margin, free, start, usual)
+    at = clear(grid.centres)
+    to, free = (goal.x, goal.y), float(np.linalg.norm(STRAIGHT.offset)) + goal.tolerance
+    usual = distance_map(grid, at, to, centroid_need(STRAIGHT), free, start)
+    roomy = roomy_map(grid, at, to, STRAIGHT, SETTINGS.margin, free, start, usual)
     return grid, usual, roomy
+
+
+def maps() -> tuple[LatticeGrid, np.ndarray, np.ndarray]:
+    return both_maps(clearance, GOAL, (AT_SLOT[0], AT_SLOT[1]))
 
 
 def test_the_roomy_way_goes_round_the_pocket_and_no_cell_is_pruned() -> None:
@@ -105,3 +112,20 @@ def test_without_the_roomy_search_the_short_search_finds_nothing_closer(
     monkeypatch.setattr(LatticePlanner, "_roomy_search", lambda *a, **k: None)
     plan = plan_at_slot(LatticePlanner(BOUNDS, SETTINGS, time_limit=120.0))
     assert plan.status == "timeout" and "3,000 expansions" in plan.reason
+
+
+class RoomySearched(Exception):
+    """The roomy search was asked for."""
+
+
+def test_an_a_star_planner_searches_without_the_roomy_map(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The roomy map's extra cost is a preference for greedy search; it would inflate A*'s."""
+
+    def refused(*a: object, **k: object) -> None:
+        raise RoomySearched
+
+    monkeypatch.setattr(LatticePlanner, "_roomy_search", refused)
+    with pytest.raises(RoomySearched):  # greedy search: lost in the slot, it asks
+        plan_at_slot(LatticePlanner(BOUNDS, SETTINGS, time_limit=120.0))
+    plan = plan_at_slot(LatticePlanner(BOUNDS, SETTINGS, search="astar", time_limit=120.0))
+    assert plan.status in ("timeout", "solved")  # whatever A* finds, it found it without

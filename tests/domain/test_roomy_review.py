@@ -28,6 +28,7 @@ from tests.domain.test_roomy_map import (
     LIB,
     SETTINGS,
     STRAIGHT,
+    both_maps,
     clearance,
 )
 
@@ -41,7 +42,7 @@ def test_a_cancel_during_the_roomy_search_ends_the_short_plan_cancelled(
     calls: list[int] = []
 
     def search(task: LatticeTask, distances: Array) -> PlanResult:
-        calls.append(task.budget)
+        calls.append(int(task.budget))
         if len(calls) == 2:  # the roomy search: the mission is cancelled while it runs
             cancel.set()
         return searched(task, distances)
@@ -94,14 +95,9 @@ def slot_clearance(points: np.ndarray) -> np.ndarray:
 
 
 def test_where_no_roomy_way_leads_to_the_goal_the_roomy_map_is_the_usual_one() -> None:
-    assert STRAIGHT is not None
-    grid = LatticeGrid(BOUNDS, SETTINGS)
-    at = slot_clearance(grid.centres)
-    goal, free = (IN_SLOT.x, IN_SLOT.y), float(np.linalg.norm(STRAIGHT.offset)) + IN_SLOT.tolerance
     start = (OUTSIDE[0], OUTSIDE[1])
-    usual = distance_map(grid, at, goal, centroid_need(STRAIGHT), free, start)
+    grid, usual, roomy = both_maps(slot_clearance, IN_SLOT, start)
     assert math.isfinite(usual[grid.cell(*start)])
-    roomy = roomy_map(grid, at, goal, STRAIGHT, SETTINGS.margin, free, start, usual)
     # (Before: the usual map plus a constant outside the goal's reach, a greedy search the
     # same as the usual map's, again.)
     assert np.array_equal(roomy, usual)
@@ -114,8 +110,8 @@ def test_a_short_search_that_found_nothing_is_not_run_again_when_no_roomy_way_le
     calls: list[int] = []
 
     def search(task: LatticeTask, distances: Array) -> PlanResult:
-        calls.append(task.budget)  # a short search that found nothing closer (stand-in)
-        return PlanResult("timeout", [], 1.0, task.budget + 1, "search timeout")
+        calls.append(int(task.budget))  # a short search that found nothing closer (stand-in)
+        return PlanResult("timeout", [], 1.0, int(task.budget) + 1, "search timeout")
 
     monkeypatch.setattr(planner, "_search", search)
     assert STRAIGHT is not None
