@@ -247,6 +247,13 @@ class MotionTable:
         return np.array([*(c - rotate(self.offset, np.array(psi))), psi])
 
 
+def body_key(table: MotionTable) -> tuple[Any, ...]:
+    """What a distance map, a motion cache or a reachability answer depends on of the body:
+    its shape and the joints its table was made for (one shape's tables differ in the
+    centroid's need, the head's offset and the swept footprints)."""
+    return (table.shape, tuple(np.round(table.joints, 3)))
+
+
 @dataclass(frozen=True)
 class LatticeGrid:
     """Where the lattice's cells lie: ``nx × ny`` centroid cells over the arena."""

@@ -43,19 +43,35 @@ def distance_map(
     need: float,
     free: float,
     start: tuple[float, float] | None = None,
-    relaxed: bool = True,
 ) -> Array:
     """Geodesic distance (m) from ``goal`` to every cell over cells whose centre keeps
     ``need`` clear (``at_centres``: the clearance at ``grid.centres``; less the half-cell the
-    centroid may sit off a centre, unless not ``relaxed``); cells within ``free`` of the goal
-    (where the body reaches the goal with its head) are passable."""
-    nx, ny, r = grid.nx, grid.ny, grid.settings.resolution
-    ok = at_centres >= need - (r * math.sqrt(0.5) if relaxed else 0.0)
-    ok |= _in_reach(grid, at_centres, goal, free)
+    centroid may sit off a centre); cells within ``free`` of the goal (where the body reaches
+    the goal with its head) are passable."""
+    r = grid.settings.resolution
+    ok = at_centres >= need - r * math.sqrt(0.5)
+    return _from_goal(grid, goal, ok | _passable_anyway(grid, at_centres, goal, free, start))
+
+
+def _passable_anyway(
+    grid: LatticeGrid,
+    at_centres: Array,
+    goal: tuple[float, float],
+    free: float,
+    start: tuple[float, float] | None,
+) -> NDArray[np.bool_]:
+    """The cells a distance map passes whatever their clearance: within ``free`` of the goal
+    with a straight way to it (``_in_reach``), and the robot's own round ``start``."""
+    out = _in_reach(grid, at_centres, goal, free)
     if start is not None:  # the robot is there: it may be touching what it just bumped into
-        ok[cells_within(grid, start, START_FREE)] = True
+        out[cells_within(grid, start, START_FREE)] = True
+    return out
+
+
+def _from_goal(grid: LatticeGrid, goal: tuple[float, float], ok: NDArray[np.bool_]) -> Array:
+    """Geodesic distances from ``goal``'s cell over the cells where ``ok`` (``[nx * ny]``)."""
     gi, gj = grid.cell(*goal)
-    return geodesic(ok.reshape(nx, ny), [(gi, gj)], r)
+    return geodesic(ok.reshape(grid.nx, grid.ny), [(gi, gj)], grid.settings.resolution)
 
 
 def turn_room(table: MotionTable) -> float:
@@ -82,11 +98,10 @@ def roomy_map(
     passable but those always are (the goal's reach, the start's), the map would be
     ``relaxed`` plus a constant, the same greedy search: it is ``relaxed`` itself."""
     need = centroid_need(table) + margin + turn_room(table)
-    roomy = distance_map(grid, at_centres, goal, need, free, start, relaxed=False)
+    always = _passable_anyway(grid, at_centres, goal, free, start)
+    roomy = _from_goal(grid, goal, (at_centres >= need) | always)  # (no half-cell relaxation)
     # (A later leg's start is not the one ``relaxed`` let through: what it cuts off stays so.)
     finite = np.isfinite(roomy) & np.isfinite(relaxed)
-    always = _in_reach(grid, at_centres, goal, free)
-    always[cells_within(grid, start, START_FREE)] = True
     gi, gj = grid.cell(*goal)
     always[gi * grid.ny + gj] = True
     if not np.any(finite.ravel() & ~always):

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 
 from domain.goal_order import LegGoal
-from domain.lattice import LatticeGrid, MotionTable
+from domain.lattice import LatticeGrid, MotionTable, body_key
 from domain.lattice_distances import centroid_need, distance_map, roomy_map
 from domain.lattice_task import Clearance
 from sim.robot import Array
@@ -50,7 +50,7 @@ class PlannerMaps:
         start: tuple[float, float] | None = None,
     ) -> Array:
         """``distance_map`` of ``table``'s body to ``goal`` (cells near ``start`` passable)."""
-        key = (version, _body(table), goal.x, goal.y, start)
+        key = (version, body_key(table), goal.x, goal.y, start)
         if key not in self._maps:
             self._keep(
                 key,
@@ -78,7 +78,7 @@ class PlannerMaps:
     ) -> Array:
         """``roomy_map`` of a leg from ``start`` (``usual``: its distance map, made with the
         cells near ``origin``, the plan's start, passable: part of what the map is kept by)."""
-        key = ("roomy", version, _body(table), goal.x, goal.y, start, origin, margin)
+        key = ("roomy", version, body_key(table), goal.x, goal.y, start, origin, margin)
         if key not in self._maps:
             at = self.centre_clearance(clearance, version)
             free = _goal_free(table, goal)
@@ -107,12 +107,6 @@ class PlannerMaps:
         if len(self._maps) >= MAPS_KEPT:
             self._maps.clear()
         self._maps[key] = made
-
-
-def _body(table: MotionTable) -> tuple[Any, ...]:
-    """What a map depends on of the body: its shape and the joints its table was made for
-    (one shape's tables differ in the centroid's need and the head's offset)."""
-    return (table.shape, tuple(np.round(table.joints, 3)))
 
 
 def _goal_free(table: MotionTable, goal: LegGoal) -> float:

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 from domain.goal_order import LegGoal, order_goals
-from domain.lattice import Key, LatticeGrid, LatticeSettings, MotionTable
+from domain.lattice import Key, LatticeGrid, LatticeSettings, MotionTable, body_key
 from domain.lattice_cache import MotionCache
 from domain.lattice_doubt import apart, within_one_motion
 from domain.lattice_entry import goal_entered
@@ -360,7 +360,7 @@ class LatticePlanner:
         suspected surfaces avoided, or passed closely) forgets every state near where the two
         differ, and that is most of a cluttered way; one per family keeps each kind's verdicts
         for its next replan, where only what was sensed since is forgotten."""
-        key = (table.shape, tuple(np.round(table.joints, 3)), self.settings.margin, family)
+        key = (*body_key(table), self.settings.margin, family)
         cache = self._motions.pop(key, None)
         if cache is None:
             if len(self._motions) >= MOTION_CACHES:  # the least recently used goes

@@ -7,9 +7,7 @@ from __future__ import annotations
 from collections.abc import Callable, Hashable
 from typing import Any
 
-import numpy as np
-
-from domain.lattice import LatticeGrid, MotionTable
+from domain.lattice import LatticeGrid, MotionTable, body_key
 from domain.lattice_reach import Reachability
 from sim.robot import Array
 
@@ -47,7 +45,7 @@ class ReachMemory:
     ) -> Reachability:
         """The answers for ``table``'s shape at this world ``version`` of ``family``
         (``at_centres``: the clearance at the cell centres, asked only for a new version)."""
-        key = (table.shape, tuple(np.round(table.joints, 3)), family)
+        key = (*body_key(table), family)
         latest = self._kept.pop(key, None)
         if latest is None or latest[0] != version:
             if latest is None and len(self._kept) >= REACH_KEPT:  # the least recently used
