@@ -28,6 +28,7 @@ from datetime import datetime
 from pathlib import Path
 from typing import Any
 
+import aiohttp
 import httpx
 import numpy as np
 import websockets
@@ -97,23 +98,24 @@ async def loop_lag(lags: list[float]) -> None:
 
 
 async def getter(
-    http: httpx.AsyncClient, ids: list[str], stop: asyncio.Event, latencies: list[float]
+    http: aiohttp.ClientSession, ids: list[str], stop: asyncio.Event, latencies: list[float]
 ) -> None:
     """GET /plan?mission=... for each mission in turn (404 before its first plan counts too)."""
     i = 0
     while not stop.is_set():
         t0 = time.perf_counter()
-        r = await http.get("/plan", params={"mission": ids[i % len(ids)]})
+        async with http.get("/plan", params={"mission": ids[i % len(ids)]}) as r:
+            text = await r.text()
         latencies.append((time.perf_counter() - t0) * 1e3)
-        assert r.status_code in (200, 404), r.text
+        assert r.status in (200, 404), text
         i += 1
         await asyncio.sleep(GET_EVERY)
 
 
-def server_timing(response: httpx.Response) -> dict[str, float]:
-    """The ``Server-Timing`` spans of an answer, in milliseconds (``total`` among them)."""
+def server_timing(header: str) -> dict[str, float]:
+    """The spans of a ``Server-Timing`` header, in milliseconds (``total`` among them)."""
     spans: dict[str, float] = {}
-    for part in response.headers.get("server-timing", "").split(","):
+    for part in header.split(","):
         name, _, params = part.strip().partition(";")
         for param in params.split(";"):
             key, _, value = param.strip().partition("=")
@@ -126,47 +128,58 @@ class Post:
     """One POST /missions as the client saw it, with the server's own account of it."""
 
     def __init__(
-        self, kind: str, at: float, ms: float, response: httpx.Response, phases: dict[str, float]
+        self, kind: str, at: float, ms: float, timing: str, phases: dict[str, float]
     ) -> None:
         self.kind, self.at, self.ms = kind, at, ms  # at: seconds since the round began
-        self.spans = server_timing(response)
+        self.spans = server_timing(timing)
         self.phases = phases  # client side, ms: before it was sent, in flight, after
 
 
-def tracer(t0: float, marks: dict[str, float]) -> Any:
-    """An httpx trace hook noting when the request went out and its answer came in."""
+def tracer() -> aiohttp.TraceConfig:
+    """An aiohttp trace noting, in a request's ``trace_request_ctx`` (a dict holding its
+    ``t0``), when its headers went out and its answer's headers came in (ms after ``t0``)."""
+    config = aiohttp.TraceConfig()
 
-    async def trace(event: str, info: dict[str, Any]) -> None:
-        marks[event] = (time.perf_counter() - t0) * 1e3
+    def mark(name: str) -> Any:
+        async def hook(session: Any, context: Any, params: Any) -> None:
+            marks = context.trace_request_ctx
+            if marks is not None:
+                marks[name] = (time.perf_counter() - marks["t0"]) * 1e3
 
-    return trace
+        return hook
+
+    config.on_request_headers_sent.append(mark("sent"))
+    config.on_request_end.append(mark("answered"))
+    return config
 
 
 async def timed_post(
-    http: httpx.AsyncClient, body: dict[str, Any], kind: str, begun: float, posts: list[Post]
+    http: aiohttp.ClientSession, body: dict[str, Any], kind: str, begun: float, posts: list[Post]
 ) -> tuple[str, float]:
     """POST a mission, recording it; (mission id, when it was sent)."""
     t0 = time.perf_counter()
-    marks: dict[str, float] = {}
-    r = await http.post("/missions", json=body, extensions={"trace": tracer(t0, marks)})
+    marks: dict[str, float] = {"t0": t0}
+    async with http.post("/missions", json=body, trace_request_ctx=marks) as r:
+        answer = await r.json()
+        timing = r.headers.get("server-timing", "")
     ms = (time.perf_counter() - t0) * 1e3
-    assert r.status_code == 201, r.text
-    sent = marks.get("http11.send_request_headers.started", float("nan"))
-    answered = marks.get("http11.receive_response_headers.complete", float("nan"))
+    assert r.status == 201, answer
+    sent, answered = marks.get("sent", float("nan")), marks.get("answered", float("nan"))
     phases = {"before": sent, "flight": answered - sent, "after": ms - answered}
-    posts.append(Post(kind, t0 - begun, ms, r, phases))
-    return r.json()["id"], t0
+    posts.append(Post(kind, t0 - begun, ms, timing, phases))
+    return str(answer["id"]), t0
 
 
 async def poster(
-    http: httpx.AsyncClient, stop: asyncio.Event, begun: float, posts: list[Post]
+    http: aiohttp.ClientSession, stop: asyncio.Event, begun: float, posts: list[Post]
 ) -> None:
     """A steady trickle of POST /missions while the burst runs; each is cancelled at once."""
     while not stop.is_set():
         mission_id, _ = await timed_post(
             http, {**MISSION, "name": "trickle"}, "trickle", begun, posts
         )
-        await http.post(f"/missions/{mission_id}/cancel")
+        async with http.post(f"/missions/{mission_id}/cancel") as r:
+            await r.read()
         await asyncio.sleep(POST_EVERY)
 
 
@@ -181,10 +194,15 @@ def seconds(mission: dict[str, Any], status: str) -> float | None:
 
 async def load_round(base: str, n: int) -> dict[str, Any]:
     """The burst, the clients and the request streams; the figures and the missions."""
-    async with httpx.AsyncClient(base_url=base, timeout=60) as http:
-        # The client's first request sets up what httpx and httpcore create lazily (~40 ms
-        # here): done before the burst, or the burst's first POST measures the client.
-        assert (await http.get("/livez")).status_code == 200
+    # The client is aiohttp, not httpx: httpx's async client took ~2 ms of CPU per POST here
+    # (encode/httpx#3215), more than the server's ~1.5 ms, on the cores it measures; the
+    # burst's slowest POSTs then timed the client (~25 ms before the last was sent).
+    timeout = aiohttp.ClientTimeout(total=60)
+    async with aiohttp.ClientSession(base, timeout=timeout, trace_configs=[tracer()]) as http:
+        # The client's first request sets up what the session creates lazily: done before the
+        # burst, or the burst's first POST measures the client.
+        async with http.get("/livez") as r:
+            assert r.status == 200
         lags: list[float] = []
         watch = asyncio.create_task(loop_lag(lags))
         t0 = time.perf_counter()
@@ -206,7 +224,10 @@ async def load_round(base: str, n: int) -> dict[str, Any]:
         stop.set()
         await asyncio.gather(*streams)
         watch.cancel()
-        missions = [(await http.get(f"/missions/{i}")).json() for i in ids]
+        missions = []
+        for i in ids:
+            async with http.get(f"/missions/{i}") as r:
+                missions.append(await r.json())
     started = [seconds(m, "planning") for m in missions]
     executing = [seconds(m, "executing") for m in missions]
     return {

@@ -56,8 +56,9 @@ class Intake:
                 batch, self.pending = self.pending[: self.batch], self.pending[self.batch :]
                 items = [item for item, _, _ in batch]
                 t0 = time.perf_counter()
+                spans = timing.Timings()  # the batch's own: its wait for the lock, its write
                 try:
-                    results = await to_thread.run_sync(self._write, items)
+                    results = await to_thread.run_sync(self._write, items, spans)
                 except Exception as exc:  # e.g. the database is down: each post answers it
                     for _, done, _ in batch:
                         if not done.done():
@@ -65,18 +66,23 @@ class Intake:
                     continue
                 ms = (time.perf_counter() - t0) * 1e3
                 for (_, done, timings), result in zip(batch, results, strict=True):
-                    if (
-                        timings is not None
-                    ):  # the request's Server-Timing: its batch's hop and write
-                        timings.add("batch", ms)
+                    if timings is not None:  # the request's Server-Timing: its batch's
+                        timings.add("batch", ms)  # hop and transaction, and within it
+                        for name, span_ms in spans.spans:  # the lock's wait and the write
+                            timings.add(f"batch.{name}", span_ms)
                     if not done.done():  # a client gone meanwhile: its mission runs anyway
                         done.set_result(result)
         finally:
             self.writer = None
 
-    def _write(self, items: list[NewMission]) -> list[Created]:
-        """In a thread: one transaction for the batch, then each new mission queued."""
-        results = self.store.create_missions(items)
+    def _write(self, items: list[NewMission], spans: timing.Timings) -> list[Created]:
+        """In a thread: one transaction for the batch, then each new mission queued (the
+        store's spans go to ``spans``)."""
+        token = timing.current.set(spans)
+        try:
+            results = self.store.create_missions(items)
+        finally:
+            timing.current.reset(token)
         for row, created in results:
             if created:
                 self.metrics.created.inc()

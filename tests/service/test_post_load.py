@@ -38,6 +38,8 @@ def test_post_answers_with_where_its_time_went(client: TestClient) -> None:
     assert r.status_code == 201
     timing = spans(r)
     assert {"accept", "validate", "store", "batch", "resource", "total"} <= set(timing)
+    assert {"batch.lock", "batch.write"} <= set(timing)  # the batch's wait for the lock, its write
+    assert timing["batch.lock"] + timing["batch.write"] <= timing["batch"] + 0.05
     assert all(ms >= 0 for ms in timing.values())
     laps = timing["accept"] + timing["validate"] + timing["store"] + timing["resource"]
     assert laps <= timing["total"] + 0.05  # the laps are consecutive parts of the total
