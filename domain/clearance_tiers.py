@@ -77,17 +77,7 @@ def tier_clearance(
     def grids() -> ClearanceGrids:
         return ClearanceGrids.of(values(), world.grid, world.bounds)
 
-    return GridClearance(clearance, grids, lambda pts: unseen_at(world, pts))
-
-
-def unseen_at(world: WorldModel, points: Array) -> NDArray[np.bool_]:
-    """Whether each world point ``[N, 2]`` lies in a cell of the world model that no range
-    reading has crossed (log-odds 0: neither free nor hit); points off the grid count as seen
-    (the walls' side of them is known)."""
-    flat, inside = world.grid.locate(np.asarray(points, dtype=float).reshape(-1, 2))
-    out = np.zeros(len(flat), dtype=bool)
-    out[inside] = world.log_odds.reshape(-1)[flat[inside]] == 0.0
-    return out
+    return GridClearance(clearance, grids)
 
 
 def _close_to(world: WorldModel, goals: Sequence[tuple[float, float]]) -> NDArray[np.bool_]:

@@ -15,7 +15,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
 from domain.grid import Grid
 from domain.occupancy_kernel import _jit
@@ -71,22 +70,12 @@ class ClearanceGrids:
         return out.reshape(points.shape[:-1])
 
 
-Unseen = Callable[[Array], NDArray[np.bool_]]  # world points [N, 2] -> never observed there
-
-
 class GridClearance:
     """A clearance callable that also hands out its compiled form (``grids()``, taken when a
-    search starts: the world's grids as they are then) and, if it knows, which points lie in
-    cells no range reading has crossed yet (``unseen``: where hidden obstacles may be)."""
+    search starts: the world's grids as they are then)."""
 
-    def __init__(
-        self,
-        fn: Callable[[Array], Array],
-        grids: Callable[[], ClearanceGrids],
-        unseen: Unseen | None = None,
-    ) -> None:
+    def __init__(self, fn: Callable[[Array], Array], grids: Callable[[], ClearanceGrids]) -> None:
         self._fn, self._grids = fn, grids
-        self.unseen = unseen
 
     def __call__(self, pts: Array) -> Array:
         return self._fn(pts)
@@ -104,11 +93,6 @@ def has_grids(clearance: object) -> bool:
 def grids_of(clearance: object) -> ClearanceGrids | None:
     """The compiled form of a clearance callable, if it has one (else ``None``)."""
     return clearance.grids() if isinstance(clearance, GridClearance) else None
-
-
-def unseen_of(clearance: object) -> Unseen | None:
-    """Which points a clearance callable's world has not observed, if it says (else ``None``)."""
-    return clearance.unseen if isinstance(clearance, GridClearance) else None
 
 
 def world_clearance(world: object) -> GridClearance:

@@ -28,19 +28,16 @@ from sim.world import Bounds, footprint
 
 SAMPLE_SPACING = 0.04  # metres between checked points along a capsule and between swept poses
 Key = tuple[int, int, int]  # centroid cell (i, j) and orientation bin k
-UNKNOWN_COST = 1.5  # a roomy way's metre through unseen cells, in metres through sensed ones
 
 
 @dataclass(frozen=True)
 class LatticeSettings:
-    """Resolution of the lattice, the clearance kept around the swept body, and what a metre
-    through space never sensed costs a way round (``lattice_distances.roomy_map``)."""
+    """Resolution of the lattice and the clearance kept around the swept body."""
 
     resolution: float = 0.05  # metres per centroid cell
     orientations: int = 64  # headings per turn (5.625° apart)
     margin: float = 0.01  # metres the swept footprint keeps from anything occupied
     start_margin: float = 0.0  # margin for motions out of the start (it may touch a contact)
-    unknown_cost: float = UNKNOWN_COST  # metres a metre of unseen cells counts on a roomy way
 
     def __post_init__(self) -> None:
         if not (0.01 <= self.resolution <= 0.5):
@@ -49,8 +46,6 @@ class LatticeSettings:
             raise ValueError("orientations: need at least 16, a multiple of 4")
         if not (0 <= self.margin <= 0.2 and 0 <= self.start_margin <= self.margin):
             raise ValueError("margin: must lie within [0, 0.2] m and start_margin <= margin")
-        if not (1.0 <= self.unknown_cost <= 10.0):
-            raise ValueError("unknown_cost: must lie within [1, 10]")
 
     @property
     def step(self) -> float:

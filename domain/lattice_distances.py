@@ -68,18 +68,10 @@ def _passable_anyway(
     return out
 
 
-def _from_goal(
-    grid: LatticeGrid,
-    goal: tuple[float, float],
-    ok: NDArray[np.bool_],
-    cost: Array | None = None,
-) -> Array:
-    """Geodesic distances from ``goal``'s cell over the cells where ``ok`` (``[nx * ny]``),
-    weighted by ``cost`` per cell (``[nx * ny]``) if given."""
+def _from_goal(grid: LatticeGrid, goal: tuple[float, float], ok: NDArray[np.bool_]) -> Array:
+    """Geodesic distances from ``goal``'s cell over the cells where ``ok`` (``[nx * ny]``)."""
     gi, gj = grid.cell(*goal)
-    shape = (grid.nx, grid.ny)
-    weights = None if cost is None else cost.reshape(shape)
-    return geodesic(ok.reshape(shape), [(gi, gj)], grid.settings.resolution, weights)
+    return geodesic(ok.reshape(grid.nx, grid.ny), [(gi, gj)], grid.settings.resolution)
 
 
 def turn_room(table: MotionTable) -> float:
@@ -98,46 +90,24 @@ def roomy_map(
     free: float,
     start: tuple[float, float],
     relaxed: Array,
-    unseen: NDArray[np.bool_] | None = None,
-    unknown_cost: float = 1.0,
 ) -> Array:
     """The distance map of a way with room: over the cells whose centre keeps the centroid's
     need, the margin and ``turn_room`` (not relaxed); every other cell ``relaxed`` (the usual
     map) reaches costs that much more than any cell of the roomy way, so a greedy search takes
     the roomy way where it has one and still finds any other. Where no cell with room is
-    passable but those always are (the goal's reach, the start's), or the roomy way from
-    ``start`` is no longer than the usual one (it has room all along), the map would lead the
-    same greedy search again: it is ``relaxed`` itself.
-
-    ``unseen`` (``[nx * ny]``): the cells no range reading has crossed, where hidden
-    obstacles may lie; along the roomy way a metre of them costs ``unknown_cost`` metres (as
-    a costmap's unknown cost), so the way round prefers sensed space without refusing the
-    rest. Whether there is a longer roomy way at all is judged by length alone."""
+    passable but those always are (the goal's reach, the start's), the map would be
+    ``relaxed`` plus a constant, the same greedy search: it is ``relaxed`` itself."""
     need = centroid_need(table) + margin + turn_room(table)
-    anyway = _passable_anyway(grid, at_centres, goal, free, start)
-    ok = (at_centres >= need) | anyway  # (no half-cell relaxation)
-    roomy = _from_goal(grid, goal, ok)
+    always = _passable_anyway(grid, at_centres, goal, free, start)
+    roomy = _from_goal(grid, goal, (at_centres >= need) | always)  # (no half-cell relaxation)
     # (A later leg's start is not the one ``relaxed`` let through: what it cuts off stays so.)
     finite = np.isfinite(roomy) & np.isfinite(relaxed)
     gi, gj = grid.cell(*goal)
-    always = anyway.copy()
     always[gi * grid.ny + gj] = True
     if not np.any(finite.ravel() & ~always):
         return relaxed
     out: Array = np.where(finite, roomy, relaxed + float(np.max(roomy[finite], initial=0.0)))
-    si, sj = grid.cell(*start)
-    if not out[si, sj] > relaxed[si, sj] + grid.settings.resolution:
-        return relaxed
-    if unseen is None or unknown_cost == 1.0:
-        return out
-    # Every way ends in the goal's reach and starts at the robot: there a metre stays a metre
-    # (the heuristic reads the goal's distance less the head's reach as where the head is).
-    dear = unseen & ~anyway
-    weighted = _from_goal(grid, goal, ok, np.where(dear, unknown_cost, 1.0))
-    costly: Array = np.where(
-        finite, weighted, relaxed + float(np.max(weighted[finite], initial=0.0))
-    )
-    return costly
+    return out
 
 
 def _in_reach(
@@ -194,33 +164,20 @@ def window_distance_map(
     return geodesic(ok, local, r)
 
 
-def geodesic(
-    ok: NDArray[np.bool_],
-    sources: Sequence[tuple[int, int]],
-    r: float,
-    cost: Array | None = None,
-) -> Array:
+def geodesic(ok: NDArray[np.bool_], sources: Sequence[tuple[int, int]], r: float) -> Array:
     """Dijkstra distances (m) from the nearest of the cells ``sources`` over the 8-connected cells where ``ok``
-    (``[nx, ny]``; ``inf`` where cut off). ``cost`` (``[nx, ny]``, each at least 1): an edge
-    counts its length times the mean cost of its two cells (a weighted distance)."""
+    (``[nx, ny]``; ``inf`` where cut off)."""
     nx, ny = ok.shape
     index = [i * ny + j for i, j in sources]
     if lattice_kernels.AVAILABLE:
-        at = np.array(index, dtype=np.int64)
-        if cost is not None:
-            return lattice_kernels.weighted_dijkstra(ok, cost, at, r)
-        return lattice_kernels.grid_dijkstra(ok, at, r)
+        return lattice_kernels.grid_dijkstra(ok, np.array(index, dtype=np.int64), r)
     flat = ok.ravel()
     graph, rows = _topology(nx, ny, r)
     # The 8-connected graph is built once per grid; edges into or out of blocked cells get an
     # infinite weight (Dijkstra never improves a distance over them).
     blocked = ~(flat[rows] & flat[graph.indices])
-    lengths = graph.data
-    if cost is not None:
-        c = np.asarray(cost, dtype=float).ravel()
-        lengths = graph.data * (0.5 * (c[rows] + c[graph.indices]))
     weighted = csr_matrix(
-        (np.where(blocked, np.inf, lengths), graph.indices, graph.indptr), shape=graph.shape
+        (np.where(blocked, np.inf, graph.data), graph.indices, graph.indptr), shape=graph.shape
     )
     dist = dijkstra(weighted, directed=True, indices=index, min_only=True)
     return np.asarray(dist, dtype=float).reshape(nx, ny)

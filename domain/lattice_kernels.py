@@ -1,5 +1,5 @@
-"""Compiled (numba) kernels of the lattice planner: the 8-connected grid Dijkstra (plain, or with
-a cost per metre in each cell), and which motions of a state keep their clearance.
+"""Compiled (numba) kernels of the lattice planner: the 8-connected grid Dijkstra, and which
+motions of a state keep their clearance.
 
 scipy's csgraph Dijkstra needs the grid as a sparse matrix whose edge weights are rebuilt for
 every map (infinite into blocked cells), a few passes over eight edges per cell in numpy before
@@ -21,7 +21,7 @@ from numpy.typing import NDArray
 from domain.occupancy_kernel import AVAILABLE, _jit
 from sim.robot import Array
 
-__all__ = ["AVAILABLE", "grid_dijkstra", "motions_free", "weighted_dijkstra"]
+__all__ = ["AVAILABLE", "grid_dijkstra", "motions_free"]
 
 
 def motions_free(
@@ -46,82 +46,6 @@ def grid_dijkstra(ok: NDArray[np.bool_], sources: NDArray[np.int64], r: float) -
     dist = np.full(nx * ny, np.inf)
     _dijkstra(np.ascontiguousarray(ok).ravel(), nx, ny, sources, r, r * math.hypot(1, 1), dist)
     return dist.reshape(nx, ny)
-
-
-def weighted_dijkstra(
-    ok: NDArray[np.bool_], cost: Array, sources: NDArray[np.int64], r: float
-) -> Array:
-    """``grid_dijkstra`` where an edge costs its length times the mean of its two cells'
-    ``cost`` ``[nx, ny]`` (each at least 1: no edge is shorter than ``r``)."""
-    nx, ny = ok.shape
-    c = np.ascontiguousarray(cost, dtype=np.float64).ravel()
-    longest = r * math.hypot(1, 1) * float(np.max(c, initial=1.0))
-    ring = int(longest / (r * (1.0 - 1e-9))) + 2  # buckets one edge can reach, and one more
-    dist = np.full(nx * ny, np.inf)
-    _weighted(
-        np.ascontiguousarray(ok).ravel(), c, nx, ny, sources, r, r * math.hypot(1, 1), ring, dist
-    )
-    return dist.reshape(nx, ny)
-
-
-@_jit
-def _weighted(  # pragma: no cover - compiled
-    ok: NDArray[np.bool_],
-    cost: Array,
-    nx: int,
-    ny: int,
-    sources: NDArray[np.int64],
-    axial: float,
-    diagonal: float,
-    ring: int,
-    dist: Array,
-) -> None:
-    """``_dijkstra`` with edge lengths weighted by the mean cost of their two cells (at least
-    1, so the buckets stay narrower than the shortest edge): ``ring`` buckets, enough for the
-    longest edge."""
-    n = nx * ny
-    width = axial * (1.0 - 1e-9)
-    buckets = np.empty((ring, n), dtype=np.int64)
-    sizes = np.zeros(ring, dtype=np.int64)
-    done = np.zeros(n, dtype=np.bool_)
-    for s in sources:
-        if dist[s] == 0.0:
-            continue
-        dist[s] = 0.0
-        buckets[0, sizes[0]] = s
-        sizes[0] += 1
-    di = (1, -1, 0, 0, 1, 1, -1, -1)
-    dj = (0, 0, 1, -1, 1, -1, 1, -1)
-    current = 0
-    live = sizes[0]
-    while live > 0:
-        b = current % ring
-        while sizes[b] > 0:
-            sizes[b] -= 1
-            live -= 1
-            u = buckets[b, sizes[b]]
-            if done[u] or int(dist[u] / width) != current:
-                continue
-            done[u] = True
-            if not ok[u]:
-                continue
-            ui, uj = u // ny, u % ny
-            du = dist[u]
-            for e in range(8):
-                vi, vj = ui + di[e], uj + dj[e]
-                if vi < 0 or vi >= nx or vj < 0 or vj >= ny:
-                    continue
-                v = vi * ny + vj
-                if done[v] or not ok[v]:
-                    continue
-                nd = du + (axial if e < 4 else diagonal) * (0.5 * (cost[u] + cost[v]))
-                if nd < dist[v]:
-                    dist[v] = nd
-                    t = int(nd / width) % ring
-                    buckets[t, sizes[t]] = v
-                    sizes[t] += 1
-                    live += 1
-        current += 1
 
 
 @_jit

@@ -1,6 +1,5 @@
 """The distance maps a lattice planner keeps per world version: the clearance at the cell
-centres, the usual footprint-aware map per goal and the roomy one (domain/lattice_distances.py),
-which counts a metre through cells never sensed as ``LatticeSettings.unknown_cost`` metres.
+centres, the usual footprint-aware map per goal and the roomy one (domain/lattice_distances.py).
 
 A replan asks for the same maps several times (the reachability test, each clearance tier's
 search, the enclosed-goal answer); each is made once per world version, goal and start.
@@ -14,7 +13,6 @@ from typing import Any
 import numpy as np
 
 from domain.goal_order import LegGoal
-from domain.grid_clearance import unseen_of
 from domain.lattice import LatticeGrid, MotionTable, body_key
 from domain.lattice_distances import centroid_need, distance_map, roomy_map
 from domain.lattice_task import Clearance
@@ -80,19 +78,12 @@ class PlannerMaps:
     ) -> Array:
         """``roomy_map`` of a leg from ``start`` (``usual``: its distance map, made with the
         cells near ``origin``, the plan's start, passable: part of what the map is kept by)."""
-        look = unseen_of(clearance)  # (what was seen changes within a version too)
-        unseen = None if look is None else look(self.grid.centres)
-        seen = None if unseen is None else int(np.count_nonzero(~unseen))
-        key = ("roomy", version, body_key(table), goal.x, goal.y, start, origin, margin, seen)
+        key = ("roomy", version, body_key(table), goal.x, goal.y, start, origin, margin)
         if key not in self._maps:
             at = self.centre_clearance(clearance, version)
             free = _goal_free(table, goal)
-            cost = self.grid.settings.unknown_cost
             self._keep(
-                key,
-                roomy_map(
-                    self.grid, at, (goal.x, goal.y), table, margin, free, start, usual, unseen, cost
-                ),
+                key, roomy_map(self.grid, at, (goal.x, goal.y), table, margin, free, start, usual)
             )
         return self._maps[key]
 

@@ -20,7 +20,6 @@ from app.missions.spec import MissionSpec
 from domain import lattice_states
 from domain.clearance_tiers import Tier, tier_clearance
 from domain.lattice import LatticeGrid, LatticeSettings, motion_table
-from domain.lattice_distances import geodesic
 from domain.lattice_entry import goal_entered
 from domain.lattice_reach import Reachability, body_rows
 from domain.lattice_search import kernel_table
@@ -69,8 +68,6 @@ def warm_up(library: Library) -> float:
             clearance = tier_clearance(WorldModel(grid.bounds, []), Tier("none"))
             start = (grid.nx // 2, grid.ny // 2, 0)
             goal_entered(LatticeTask(grid, table, clearance, start, (0.5, 0.5), 0.1, 0.02, 0.02, 0))
-        # the roomy map's weighted Dijkstra (its unknown cost): first asked after a lost search
-        geodesic(np.ones((2, 2), dtype=bool), [(0, 0)], settings.resolution, np.full((2, 2), 2.0))
     except Exception:  # a warm-up is an optimisation, never a reason to stop
         log.exception("warm-up mission failed; missions will run cold")
     # What the process holds now (modules, the library, compiled kernels, motion tables) lives

@@ -34,45 +34,6 @@ def test_grid_dijkstra_equals_scipy(
     assert np.array_equal(got, want)  # inf where cut off, and the same floats elsewhere
 
 
-def scipy_weighted(
-    ok: np.ndarray,
-    sources: list[tuple[int, int]],
-    r: float,
-    cost: np.ndarray,
-    monkeypatch: pytest.MonkeyPatch,
-) -> np.ndarray:
-    with monkeypatch.context() as m:
-        m.setattr(lattice_kernels, "AVAILABLE", False)
-        return lattice_distances.geodesic(ok, sources, r, cost)
-
-
-@pytest.mark.parametrize("shape", [(1, 9), (7, 1), (40, 33), (120, 90)])
-@pytest.mark.parametrize("seed", [0, 1, 2])
-def test_weighted_grid_dijkstra_equals_scipy(
-    shape: tuple[int, int], seed: int, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """With a cost per cell (an edge: its length times its two cells' mean cost), value for
-    value, whatever the largest cost (the bucket ring grows with it)."""
-    rng = np.random.default_rng(seed)
-    ok = rng.random(shape) > 0.25
-    cost = np.where(rng.random(shape) < 0.5, 1.0, 1.0 + 4.0 * seed * rng.random(shape))
-    sources = [(int(rng.integers(shape[0])), int(rng.integers(shape[1]))) for _ in range(1 + seed)]
-    got = lattice_distances.geodesic(ok, sources, 0.05, cost)
-    want = scipy_weighted(ok, sources, 0.05, cost, monkeypatch)
-    assert np.isfinite(want).sum() >= len(set(sources))
-    assert np.array_equal(got, want)
-    ones = lattice_distances.geodesic(ok, sources, 0.05, np.ones(shape))
-    assert np.array_equal(ones, lattice_distances.geodesic(ok, sources, 0.05))  # cost 1: plain
-
-
-def test_unsensed_cells_make_a_way_dearer_by_their_cost() -> None:
-    ok = np.ones((1, 11), dtype=bool)
-    cost = np.ones((1, 11))
-    cost[0, 6:] = 3.0
-    d = lattice_distances.geodesic(ok, [(0, 0)], 1.0, cost)
-    assert d[0, 5] == 5.0 and d[0, 6] == 7.0 and d[0, 10] == 19.0  # half an edge each side
-
-
 def test_a_blocked_source_reaches_nothing_but_itself(monkeypatch: pytest.MonkeyPatch) -> None:
     ok = np.ones((5, 6), dtype=bool)
     ok[2, 3] = False
