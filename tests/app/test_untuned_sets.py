@@ -1,4 +1,4 @@
-"""The second to fifth untuned sets (examples/untuned2 to untuned5) are well-formed:
+"""The second to sixth untuned sets (examples/untuned2 to untuned6) are well-formed:
 every mission parses, declares what it expects, starts clear, and an expected success is
 solvable for the body's width while an expected `unreachable` really is cut off (the same
 free-space checks as examples/hard); each set covers what its README claims. Nothing here runs
@@ -20,7 +20,8 @@ UNTUNED2 = sorted(EXAMPLES.joinpath("untuned2").glob("*.json"))
 UNTUNED3 = sorted(EXAMPLES.joinpath("untuned3").glob("*.json"))
 UNTUNED4 = sorted(EXAMPLES.joinpath("untuned4").glob("*.json"))
 UNTUNED5 = sorted(EXAMPLES.joinpath("untuned5").glob("*.json"))
-EVERY = [*UNTUNED2, *UNTUNED3, *UNTUNED4, *UNTUNED5]
+UNTUNED6 = sorted(EXAMPLES.joinpath("untuned6").glob("*.json"))
+EVERY = [*UNTUNED2, *UNTUNED3, *UNTUNED4, *UNTUNED5, *UNTUNED6]
 # The fifth set's bent slots and dog-leg channels: a unit's disc passes them, a disc as wide
 # as the narrowest passage the body can turn in (0.28 m) does not.
 DOGLEGS = [p for p in UNTUNED5 if p.stem.startswith(("dogleg-", "arena-18m-", "two-unordered-"))]
@@ -85,6 +86,26 @@ def test_the_fifth_set_covers_what_it_claims() -> None:
     # the controls: straight corridors between two known bands (rectangles) that seal the arena
     bands = [s for s in specs if sum(o.known and o.type == "rectangle" for o in s.obstacles) == 2]
     assert len(bands) == 2
+
+
+def test_the_sixth_set_covers_what_it_claims() -> None:
+    specs = [hard.spec(p) for p in UNTUNED6]
+    assert 10 <= len(specs) <= 12
+    assert len({s.name for s in specs}) == len(specs)
+    assert any(s.sensors.noise >= 0.05 for s in specs)
+    assert all(s.sensors.noise == 0 or 0.02 <= s.sensors.noise <= 0.05 for s in specs)
+    assert any(s.bounds.xmax - s.bounds.xmin >= 15 for s in specs)
+    assert any(s.order == "any" and len(s.goals) >= 2 for s in specs)
+    assert sum(1 for s in specs for e in s.events if e.type == "deform") == 1
+    assert sum(1 for s in specs for e in s.events if isinstance(e, DropoutEvent)) == 1
+    assert any(s.shape != "straight" for s in specs)
+    unreachable = [s for s in specs if s.expect and s.expect.reason == "unreachable"]
+    assert len(unreachable) == 1
+    # the pair: the same wall, start and goal; the hidden seal on one way or the other
+    pair = [s for s in specs if s.name.startswith("zslot-020-hidden-seal-on-")]
+    assert len(pair) == 2
+    assert pair[0].start == pair[1].start and pair[0].goals == pair[1].goals
+    assert [o for o in pair[0].obstacles if o.known] == [o for o in pair[1].obstacles if o.known]
 
 
 def way(path: Path, radius: float) -> float:
