@@ -61,7 +61,9 @@ def _dijkstra(  # pragma: no cover - compiled
     """Dijkstra from ``sources`` into ``dist`` (filled with inf) with a bucket queue (Dial's):
     buckets a little narrower than the shortest edge, so no two cells of one bucket can improve
     each other and a bucket's cells are final in any order; with edges at most ``√2`` of the
-    shortest, only three buckets are ever live (a ring of four)."""
+    shortest, only three buckets are ever live (a ring of four). A cell lowered within the
+    bucket it is queued in keeps its one entry there (several sources lower a cell beside
+    them twice, diagonally then straight), so no bucket holds more than the ``n`` cells."""
     n = nx * ny
     width = axial * (1.0 - 1e-9)
     ring = 4
@@ -100,8 +102,12 @@ def _dijkstra(  # pragma: no cover - compiled
                     continue
                 nd = du + (axial if e < 4 else diagonal)
                 if nd < dist[v]:
+                    t = int(nd / width)
+                    queued = dist[v] < np.inf and int(dist[v] / width) == t
                     dist[v] = nd
-                    t = int(nd / width) % ring
+                    if queued:
+                        continue  # its entry in that bucket reads the new distance
+                    t %= ring
                     buckets[t, sizes[t]] = v
                     sizes[t] += 1
                     live += 1

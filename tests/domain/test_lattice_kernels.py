@@ -83,3 +83,32 @@ def test_cells_within_finds_what_a_scan_of_every_cell_finds(seed: int) -> None:
         c = grid.centres
         want = np.flatnonzero(np.hypot(c[:, 0] - point[0], c[:, 1] - point[1]) <= radius)
         np.testing.assert_array_equal(lattice_distances.cells_within(grid, point, radius), want)
+
+
+def test_several_sources_never_fill_a_bucket_past_the_cells(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A bucket holds one entry per cell. A row of sources lowers each cell beside it twice
+    within one bucket (diagonally, then straight: 10 entries in a 3 x 3 grid); the kernel's
+    own loop run as Python raises IndexError where, compiled, it wrote past the bucket."""
+    ok = np.ones((3, 3), dtype=bool)
+    sources = [(1, 0), (1, 1), (1, 2)]
+    want = scipy_geodesic(ok, sources, 0.05, monkeypatch)
+    monkeypatch.setattr(lattice_kernels, "_dijkstra", lattice_kernels._dijkstra.py_func)
+    assert np.array_equal(lattice_distances.geodesic(ok, sources, 0.05), want)
+
+
+@pytest.mark.parametrize("seed", [0, 1])
+def test_many_sources_equal_scipy_run_as_python(seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
+    rng = np.random.default_rng(seed)
+    cases = []
+    for _ in range(60):
+        shape = (int(rng.integers(1, 8)), int(rng.integers(1, 8)))
+        ok = rng.random(shape) > 0.15
+        n = shape[0] * shape[1]
+        picks = rng.integers(0, n, int(rng.integers(1, n + 1)))
+        sources = [divmod(int(s), shape[1]) for s in picks]
+        cases.append((ok, sources, scipy_geodesic(ok, sources, 0.05, monkeypatch)))
+    monkeypatch.setattr(lattice_kernels, "_dijkstra", lattice_kernels._dijkstra.py_func)
+    for ok, sources, plain in cases:
+        assert np.array_equal(lattice_distances.geodesic(ok, sources, 0.05), plain)
