@@ -14,7 +14,7 @@ domain/lattice_search.py.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from typing import Any
 
@@ -27,6 +27,7 @@ from domain import lattice_kernels
 from domain.lattice import Key, LatticeGrid, MotionTable
 from domain.lattice_cache import MotionCache, Moves
 from domain.lattice_expanded import fill_expanded, near_goal_states
+from domain.lattice_rest import can_rest
 from domain.lattice_states import LatticeState, StatePool
 from domain.pyperplan_adapter import CancelFlag, Fact, stop_if_due
 from domain.touching import TouchAllowance, touch_allowance
@@ -211,6 +212,11 @@ class LatticeTask(Task):  # type: ignore[misc]
         r, b = self.grid.settings.resolution, self.grid.bounds
         x, y = b.xmin + (i + 0.5) * r + dx, b.ymin + (j + 0.5) * r + dy
         return math.hypot(x - self.goal[0], y - self.goal[1]) <= self.reach
+
+    def resting(self, numbers: Sequence[int] | NDArray[np.int64]) -> NDArray[np.bool_]:
+        """Per state number: whether the body at rest there keeps the margin clear."""
+        numbers = np.asarray(numbers, dtype=np.int64)
+        return can_rest(self.grid, self.table, self.clearance, numbers, self.margin)
 
     def valid_motions(self, key: Key) -> list[tuple[Key, int]]:
         """The motions (indices) whose swept footprint is clear from ``key``, with where they
