@@ -33,11 +33,8 @@ def can_rest(
     out = np.zeros(len(numbers), dtype=bool)
     if numbers.size == 0:
         return out
-    plane = grid.nx * grid.ny
-    k, cell = np.divmod(numbers, plane)
-    i, j = np.divmod(cell, grid.ny)
-    r, b = grid.settings.resolution, grid.bounds
-    centres = np.stack([b.xmin + (i + 0.5) * r, b.ymin + (j + 0.5) * r], axis=-1)
+    k, cell = np.divmod(numbers, grid.nx * grid.ny)  # encode(): (k * nx + i) * ny + j
+    centres = grid.centres[cell]
     for bin_ in np.unique(k).tolist():
         rows = np.flatnonzero(k == bin_)
         body: Array = table.body_points[bin_]

@@ -215,8 +215,7 @@ class LatticeTask(Task):  # type: ignore[misc]
 
     def resting(self, numbers: Sequence[int] | NDArray[np.int64]) -> NDArray[np.bool_]:
         """Per state number: whether the body at rest there keeps the margin clear."""
-        numbers = np.asarray(numbers, dtype=np.int64)
-        return can_rest(self.grid, self.table, self.clearance, numbers, self.margin)
+        return can_rest(self.grid, self.table, self.clearance, np.asarray(numbers), self.margin)
 
     def valid_motions(self, key: Key) -> list[tuple[Key, int]]:
         """The motions (indices) whose swept footprint is clear from ``key``, with where they

@@ -7,6 +7,8 @@ import time
 from dataclasses import dataclass
 from typing import Any
 
+from pyperplan.task import Operator
+
 from domain import lattice_search
 from domain.lattice_heuristic import LatticeHeuristic
 from domain.lattice_states import no_cycle_collection
@@ -54,24 +56,26 @@ def search_leg(task: LatticeTask, distances: Array, search: str, heuristic: str)
         best = lattice_h.best
         start_h = lattice_h(_Root(task.initial_state))
         if stop.status == "timeout" and best is not None and best[0] < start_h - 1.0:
-            names = resting_end([op.name for op in best[1].extract_solution()], task)
-            end = frozenset([task.fact(_landing(names[-1]))]) if names else None
-            if end is not None and lattice_h(_Root(end)) < start_h - 1.0:
+            moves = resting_end(best[1].extract_solution(), task)
+            if moves and lattice_h(_Root(moves[-1].add_effects)) < start_h - 1.0:
                 ms = (time.monotonic() - t0) * 1e3
+                names = [op.name for op in moves]
                 return PlanResult("solved", names, ms, task.expansions, "partial")
         return stopped(stop, t0, task.expansions)
     return finished(plan, t0, task.expansions)
 
 
-def resting_end(names: list[str], task: LatticeTask) -> list[str]:
-    """A partial plan's moves, less the last if the body cannot rest where it lands: no motion
-    out of a plan's last state checked it (``domain/lattice_rest.py``); the state before it
-    started the last motion, so it can."""
-    if names and not task.resting([_landing(names[-1])])[0]:
-        return names[:-1]
-    return names
+def resting_end(moves: list[Operator], task: LatticeTask) -> list[Operator]:
+    """A partial plan's moves, less the last if the body cannot rest where it lands (its add
+    effect): no motion out of a plan's last state checked it (``domain/lattice_rest.py``);
+    the state before it started the last motion, so it can."""
+    if moves and not task.resting([_landing(moves[-1], task)])[0]:
+        return moves[:-1]
+    return moves
 
 
-def _landing(name: str) -> int:
-    """The state a ``(move sA sB primitive)`` action lands on."""
-    return int(name.split()[2][1:])
+def _landing(move: Operator, task: LatticeTask) -> int:
+    """The state a move lands on."""
+    number = task.at(move.add_effects)
+    assert number is not None, move.name
+    return number

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from pyperplan.task import Operator
 
 from domain.leg_search import resting_end
 from tests.domain.test_lattice_entry import scene, task_of
@@ -33,7 +34,11 @@ def test_a_partial_plan_loses_a_last_move_onto_a_pose_it_cannot_rest_at() -> Non
     numbers = np.arange(task.grid.size, dtype=np.int64)
     rests = task.resting(numbers)
     ok, blocked = int(numbers[rests][0]), int(numbers[~rests][0])
-    plan = [f"(move s{task.start_number} s{ok} p1)", f"(move s{ok} s{blocked} p2)"]
+    start = task.fact(task.start_number)
+    plan = [
+        Operator(f"(move s{task.start_number} s{ok} p1)", [start], [task.fact(ok)], [start]),
+        Operator(f"(move s{ok} s{blocked} p2)", [task.fact(ok)], [task.fact(blocked)], []),
+    ]
     assert resting_end(plan, task) == plan[:1]
     assert resting_end(plan[:1], task) == plan[:1]
     assert resting_end([], task) == []
