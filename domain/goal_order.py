@@ -7,8 +7,8 @@ from __future__ import annotations
 import itertools
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Protocol
 
-from domain.lattice import LatticeGrid
 from sim.robot import Array
 
 MAX_GOALS_EXACT = 7  # unordered goals up to this many are ordered by trying every permutation
@@ -24,8 +24,14 @@ class LegGoal:
     tolerance: float
 
 
+class Cells(Protocol):
+    """A grid that names the cell of a point (a planner's lattice grid)."""
+
+    def cell(self, x: float, y: float) -> tuple[int, int]: ...
+
+
 def order_goals(
-    grid: LatticeGrid, goals: Sequence[LegGoal], maps: dict[int, Array], start: tuple[int, int]
+    grid: Cells, goals: Sequence[LegGoal], maps: dict[int, Array], start: tuple[int, int]
 ) -> list[LegGoal]:
     """The tour through ``goals`` from ``start`` (a cell) that is shortest by ``maps`` (each
     goal's distance map, metres)."""

@@ -4,7 +4,7 @@ A strategy owns its plan and its state; the executor hands it a ``Situation`` (w
 knows now: time, tracked pose, sensed joints, body shape, remaining goals, the world model and
 the latest range readings) and asks three things: replan after a trigger, whether the current
 plan is broken (a precondition violated), and the command for the next control tick. The
-navigation strategy (``domain.navigation_strategy``) plans on the primitive lattice; the
+navigation strategy (``domain.navigation``) plans on the primitive lattice; the
 reactive one (``domain.reactive_strategy``) is the paper's Table 3 domain.
 """
 
@@ -18,7 +18,7 @@ from typing import Any, Protocol
 from domain.goal_order import LegGoal
 from domain.pyperplan_adapter import CancelFlag
 from domain.triggers import ReplanRecord, Trigger
-from domain.worldmodel import RangeObservation, WorldModel
+from domain.world import RangeObservation, WorldModel
 from sim.controls import Control
 
 
@@ -59,6 +59,12 @@ class Replanned:
     domain_pddl: str
     export: Callable[[], str] = field(repr=False, compare=False)  # writes the problem's text
     plan: list[str] = field(default_factory=list)
+    # Why there is no plan (``ok`` False): ``unreachable``, ``timeout``, ``start_blocked``,
+    # ``no_primitives``, ``cancelled``, ... and, for an unreachable goal, what proves it
+    # (``known``: the known map alone; ``sensed``: with sensed obstacles, which sensing again
+    # may clear). The behaviour tree's recoveries choose by them.
+    failure: str | None = None
+    proof: str | None = None
     # Lets go of what the plan's searches kept that ``export`` does not read (the world's
     # grids, caches): called once the plan is superseded and its problem still unwritten.
     release: Callable[[], None] = field(default=lambda: None, repr=False, compare=False)

@@ -1,4 +1,4 @@
-"""Typed replanning triggers (DESIGN §5) and the record each replan leaves."""
+"""Typed replanning triggers and the record each replan leaves (``docs/navigation.md``)."""
 
 from __future__ import annotations
 
@@ -127,6 +127,18 @@ class Contact:
         return {"part": self.part, "side": self.side, "at": list(self.at)}
 
 
+@dataclass(frozen=True)
+class Recovered:
+    """A recovery of the behaviour tree moved the robot (or cleared evidence): plan again."""
+
+    recovery: str
+    because: str = ""
+    kind: str = "recovered"
+
+    def detail(self) -> dict[str, Any]:
+        return {"recovery": self.recovery, "because": self.because}
+
+
 Trigger = (
     ObstacleSensed
     | ShapeChanged
@@ -138,6 +150,7 @@ Trigger = (
     | Initial
     | PathBlocked
     | Contact
+    | Recovered
 )
 
 

@@ -12,13 +12,14 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from app.executor.plan_versions import SEARCHES_KEPT, PlanVersion
-from app.executor.robot import Observation, Robot
+from app.executor.robot import ContactReading, Observation, Robot
 from app.missions.spec import MissionSpec
 from domain.goal_order import LegGoal
+from domain.navigation import HeadView, NavigationSettings
 from domain.pyperplan_adapter import CancelFlag
 from domain.strategy import PlanningStrategy, Situation
 from domain.triggers import ReplanRecord, Trigger
-from domain.worldmodel import WorldModel
+from domain.world import WorldModel
 from primitives.library import Library
 from sim.controls import Control
 
@@ -74,6 +75,17 @@ class MissionContext:
     pddl: list[PlanVersion] = field(default_factory=list)
     searches_kept: int = SEARCHES_KEPT  # newest plan versions keeping their searches whole
     contacts: int = 0
+    settings: NavigationSettings = field(default_factory=NavigationSettings)
+    view: HeadView = field(default_factory=HeadView.default)  # the head's rays, as planned
+    # What the recoveries read: a contact not yet backed off from, the last planning failure
+    # (its kind and, for an unreachable goal, what proves it) and why the plan stopped.
+    contact: ContactReading | None = None
+    plan_failure: str | None = None
+    plan_proof: str | None = None
+    failure_reason: str | None = None
+    recoveries: int = 0  # recoveries run
+    spin_direction: int = 1  # the last spin's direction (the next turns the other way)
+    shapes_tried: set[str] = field(default_factory=set)  # reshaped from since the last plan
     interval: float = 0.25  # model seconds per control tick
     chain_started: float = 0.0
     chain_entry_pose: tuple[float, float, float] | None = None

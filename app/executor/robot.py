@@ -15,8 +15,7 @@ from dataclasses import dataclass, field
 from typing import Any, Protocol
 
 from app.missions.spec import MissionSpec
-from domain.observation import trusted_observation
-from domain.worldmodel import RangeObservation
+from domain.world import RangeObservation, trusted_observation
 from sim.controls import Control
 from sim.events import Deformation, Event, SensorDropout
 from sim.robot import DEFAULT_GEOMETRY, RobotGeometry, head_tip
@@ -193,17 +192,23 @@ __all__ = [
     "Observation",
     "Robot",
     "SimRobot",
+    "head_sensors",
     "sim_robot",
 ]
+
+
+def head_sensors(spec: MissionSpec) -> tuple[RangeSensor, ...]:
+    """The mission's range sensors on the head: the forward IR and the ring, seeded noise."""
+    s = spec.sensors
+    ring = range_ring(s.ring, s.range, s.noise) if s.ring else ()
+    ir = RangeSensor("ir", 0.0, s.ir_range, math.radians(10), 3, s.noise)
+    return (ir, *ring)
 
 
 def sim_robot(spec: MissionSpec, dt: float = 0.25) -> SimRobot:
     """The simulated robot of a mission: its world (every obstacle, hidden ones included),
     its sensors (forward IR + ring, seeded noise), deformation and dropout events."""
     obstacles = tuple(spec.world_obstacles())
-    s = spec.sensors
-    ring = range_ring(s.ring, s.range, s.noise) if s.ring else ()
-    ir = RangeSensor("ir", 0.0, s.ir_range, math.radians(10), 3, s.noise)
     events: list[Event] = []
     for e in spec.events:
         if e.type == "deform":
@@ -212,7 +217,7 @@ def sim_robot(spec: MissionSpec, dt: float = 0.25) -> SimRobot:
             events.append(SensorDropout(e.t, e.duration, tuple(e.sensors)))
     world = World(spec.bounds.bounds(), obstacles)
     simulator = Simulator(
-        world, sensors=SensorSuite(range_sensors=(ir, *ring)), events=tuple(events), dt=dt
+        world, sensors=SensorSuite(range_sensors=head_sensors(spec)), events=tuple(events), dt=dt
     )
     simulator.reset(
         (spec.start.x, spec.start.y, spec.start.psi), spec.start_joints(), seed=spec.seed

@@ -20,18 +20,16 @@ from py_trees.common import Access, Status
 
 from app.executor.context import GoalState, MissionContext, MissionResult
 from app.executor.plan_versions import SEARCHES_KEPT
-from app.executor.robot import Robot, sim_robot
+from app.executor.robot import Robot, head_sensors, sim_robot
 from app.executor.tree import build_tree, snapshot
 from app.missions.spec import MissionSpec
 from domain.knowledge import Goal
-from domain.lattice import LatticeSettings
-from domain.lattice_planner import LatticePlanner
-from domain.navigation_strategy import NavigationStrategy
+from domain.navigation import HeadView, NavigationSettings, NavigationStrategy, Planner
 from domain.pyperplan_adapter import CancelFlag
 from domain.reactive_strategy import ReactiveStrategy
 from domain.strategy import PlanningStrategy
 from domain.triggers import GoalsChanged, ObstacleAdded, Resumed
-from domain.worldmodel import WorldModel
+from domain.world import WorldModel
 from primitives.grounding import TICK
 from primitives.library import Library
 from sim.controls import FixedShape
@@ -52,18 +50,23 @@ class UpdateRefused(ValueError):
     """A live update that cannot apply now (e.g. removing a goal already reached)."""
 
 
+def navigation_settings(spec: MissionSpec) -> NavigationSettings:
+    """The mission's navigation settings: the defaults with the mission's margin."""
+    return NavigationSettings(margin=spec.planner.margin)
+
+
 def make_strategy(spec: MissionSpec, library: Library) -> PlanningStrategy | None:
     """The planning strategy the mission asks for (none for a manual chain)."""
     if not spec.goals:
         return None
     p = spec.planner
-    own = p.heuristic in ("roadmap", "lattice")
+    own = p.heuristic in ("cost", "roadmap", "lattice")
     if p.domain == "reactive":
         heuristic: str = "hff" if own else p.heuristic
         try:
             return ReactiveStrategy(
                 library,
-                p.search,
+                "gbf" if p.search == "cost" else p.search,
                 heuristic,
                 p.time_limit,
                 {str(op): name for op, name in p.operators.items()},
@@ -73,10 +76,11 @@ def make_strategy(spec: MissionSpec, library: Library) -> PlanningStrategy | Non
             )
         except (KeyError, ValueError) as exc:
             raise MissionError(f"planner.operators: {str(exc).strip(chr(34))}") from exc
-    heuristic = "lattice" if own else p.heuristic
-    settings = LatticeSettings(margin=p.margin)
-    planner = LatticePlanner(spec.bounds.bounds(), settings, p.search, heuristic, p.time_limit)
-    return NavigationStrategy(library, planner)
+    heuristic = "cost" if own else p.heuristic
+    search = p.search
+    settings = navigation_settings(spec)
+    planner = Planner(spec.bounds.bounds(), settings, search, heuristic, p.time_limit)
+    return NavigationStrategy(library, planner, HeadView.of(head_sensors(spec)))
 
 
 class MissionRunner:
@@ -117,7 +121,7 @@ class MissionRunner:
         self._writer = py_trees.blackboard.Client(name="runner", namespace=self.namespace)
         self._writer.register_key("context", access=Access.WRITE)
         self._writer.context = self.ctx
-        self.tree = build_tree(spec, self.namespace)
+        self.tree = build_tree(spec, self.namespace, self.ctx.settings.recovery)
         self.tree.setup_with_descendants()
 
     @staticmethod
@@ -131,7 +135,8 @@ class MissionRunner:
                 raise MissionError(f"shape: joints {list(joints)}: {coverage.describe()}")
         assert shape is not None
         known = [o for o in spec.world_obstacles() if o.known]
-        world = WorldModel(spec.bounds.bounds(), known)
+        settings = navigation_settings(spec)
+        world = WorldModel(spec.bounds.bounds(), known, settings.costmap)
         observation = robot.observe()
         ctx = MissionContext(
             spec=spec,
@@ -143,6 +148,8 @@ class MissionRunner:
             goals=[GoalState(g.x, g.y, g.tolerance) for g in spec.goals],
             shape=shape,
             joints=joints,
+            settings=settings,
+            view=HeadView.of(head_sensors(spec)),
             interval=TICK,
         )
         for entry in observation.log:
@@ -177,7 +184,8 @@ class MissionRunner:
                 "succeeded", "all goals reached" if ctx.goals else "chain completed"
             )
         if self.tree.status == Status.FAILURE:
-            return self._finish("failed", ctx.failure or "the behaviour tree failed")
+            reason = ctx.failure or ctx.failure_reason or "the behaviour tree failed"
+            return self._finish("failed", reason)
         if ctx.command is None:  # hold still
             ctx.current_action, ctx.grounding = "hold", {}
         command = ctx.command or FixedShape.of(np.zeros(4), ctx.joints)

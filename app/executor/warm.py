@@ -13,22 +13,12 @@ import gc
 import logging
 import time
 
-import numpy as np
-
-from app.executor.runner import MissionRunner
+from app.executor.robot import head_sensors
+from app.executor.runner import MissionRunner, navigation_settings
 from app.missions.spec import MissionSpec
-from domain import lattice_states
-from domain.clearance_tiers import Tier, tier_clearance
-from domain.lattice import LatticeGrid, LatticeSettings, motion_table
-from domain.lattice_entry import goal_entered
-from domain.lattice_reach import Reachability, body_rows
-from domain.lattice_search import kernel_table
-from domain.lattice_task import LatticeTask
-from domain.navigation_strategy import held_joints
-from domain.worldmodel import WorldModel
+from domain.navigation import HeadView, warm_tables
+from domain.navigation.lattice import states as lattice_states
 from primitives.library import Library
-from primitives.shapes import SHAPES
-from sim.world import Bounds
 
 log = logging.getLogger(__name__)
 
@@ -47,27 +37,16 @@ WARM_UP = {
 
 
 def warm_up(library: Library) -> float:
-    """Run the warm-up mission and one reachability and goal-entry question, untimed, then move what the
-    process holds to the collector's permanent generation (``gc.freeze``); returns the seconds
-    it took. Never raises: a process that cannot warm up still runs missions (cold)."""
+    """Run the warm-up mission, then load every library shape's motion tables and the
+    feasibility flood (``domain.navigation.warm_tables``), untimed; then move what the process
+    holds to the collector's permanent generation (``gc.freeze``). Returns the seconds it took.
+    Never raises: a process that cannot warm up still runs missions (cold)."""
     started = time.perf_counter()
     try:
         spec = MissionSpec.model_validate(WARM_UP)
         MissionRunner(spec, library).run()
-        settings = LatticeSettings(margin=spec.planner.margin)  # as missions' planners have it
-        grid = LatticeGrid(Bounds(-1.0, 1.0, -1.0, 1.0), settings)
-        for shape in library.lattice_shapes():  # every shape's tables (reshaping reads them)
-            made = motion_table(library, shape, held_joints(SHAPES[shape].joints), settings)
-            if made is not None:
-                kernel_table(made, settings.margin)
-                body_rows(grid, made, settings.margin)
-        table = motion_table(library, "straight", (0.0, 0.0, 0.0), settings)
-        if table is not None:  # the kernels loaded only after a long search
-            reach = Reachability(grid, table, np.full(grid.nx * grid.ny, 1.0), 0.02)
-            reach.reaches((grid.nx // 2, grid.ny // 2, 0), (0.5, 0.5), 0.1)
-            clearance = tier_clearance(WorldModel(grid.bounds, []), Tier("none"))
-            start = (grid.nx // 2, grid.ny // 2, 0)
-            goal_entered(LatticeTask(grid, table, clearance, start, (0.5, 0.5), 0.1, 0.02, 0.02, 0))
+        # every shape's tables, as missions' planners make them (reshaping reads them)
+        warm_tables(library, navigation_settings(spec), HeadView.of(head_sensors(spec)))
     except Exception:  # a warm-up is an optimisation, never a reason to stop
         log.exception("warm-up mission failed; missions will run cold")
     # What the process holds now (modules, the library, compiled kernels, motion tables) lives

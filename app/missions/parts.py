@@ -16,7 +16,7 @@ from pydantic import (
 )
 from pydantic import Strict as StrictNumber  # no bool or string coerced into a number
 
-from domain.lattice import LatticeSettings
+from domain.navigation import NavigationSettings
 from sim.world import Bounds
 
 ARRIVE_FRACTION = 0.4  # a goal is marked reached within this fraction of its tolerance
@@ -144,7 +144,7 @@ class BoundsSpec(Strict):
     def _ordered(self) -> BoundsSpec:
         if self.xmin >= self.xmax or self.ymin >= self.ymax:
             raise ValueError("need xmin < xmax and ymin < ymax")
-        r = LatticeSettings().resolution
+        r = NavigationSettings().resolution
         cells = math.ceil((self.xmax - self.xmin) / r) * math.ceil((self.ymax - self.ymin) / r)
         if cells > MAX_ARENA_CELLS:
             raise ValueError(
@@ -226,17 +226,29 @@ class PlannerSpec(Strict):
     domain: Literal["navigation", "reactive"] = "navigation"
     """navigation: a state lattice over the library's primitives; reactive: the paper's
     Table 3 domain"""
-    search: Literal["gbf", "astar", "wastar", "ehs", "bfs"] = "gbf"
-    """pyperplan's search algorithm"""
-    heuristic: Annotated[
-        Literal["lattice", "roadmap", "hff", "hadd", "hmax", "lmcut", "landmark", "blind"],
+    search: Annotated[
+        Literal["cost", "gbf", "astar", "wastar", "ehs", "bfs"],
         Field(
             description=(
-                "lattice: footprint-aware 2-D distances (fast; 'roadmap' is an old name for it);"
-                " the others are pyperplan's, over the whole reachable lattice"
+                "navigation: 'cost' is weighted A* on the motions' costs (their length, more "
+                "near obstacles and where the body sweeps unseen space) with an anytime best "
+                "node; the others are pyperplan's unit-cost searches on the same lattice (a "
+                "check; they ignore the costs). reactive: pyperplan's search of Table 3"
             )
         ),
-    ] = "lattice"
+    ] = "cost"
+    heuristic: Annotated[
+        Literal[
+            "cost", "lattice", "roadmap", "hff", "hadd", "hmax", "lmcut", "landmark", "blind"
+        ],
+        Field(
+            description=(
+                "cost: the obstacle heuristic, a cost-aware 2-D distance to the goal ('lattice' "
+                "and 'roadmap' are older names for it); the others are pyperplan's, over the "
+                "whole reachable lattice (with a pyperplan search only)"
+            )
+        ),
+    ] = "cost"
     time_limit: Annotated[float, StrictNumber(), Field(allow_inf_nan=False, gt=0, le=120)] = 5.0
     """planning time per (re)plan, wall seconds"""
     spacing: Annotated[
@@ -302,6 +314,16 @@ class PlannerSpec(Strict):
             )
         ),
     ] = False
+
+    @model_validator(mode="after")
+    def _search_and_heuristic(self) -> PlannerSpec:
+        pyperplan_heuristic = self.heuristic not in ("cost", "lattice", "roadmap")
+        if self.domain == "navigation" and self.search == "cost" and pyperplan_heuristic:
+            raise ValueError(
+                "heuristic: the cost search takes the cost heuristic; pyperplan's heuristics "
+                "go with pyperplan's searches (gbf, astar, wastar, ehs)"
+            )
+        return self
 
 
 class SensorSpec(Strict):

@@ -1,0 +1,357 @@
+"""Recoveries as behaviour-tree nodes, after Nav2's navigator trees.
+
+Two composites py_trees lacks:
+
+- ``RecoveryNode`` (Nav2's RecoveryNode): ticks its first child (following the plan); when that
+  fails, ticks its second (the recoveries) and, once a recovery succeeds, the first again; it
+  fails after ``retries`` recoveries in a row, or when no recovery applies. Recoveries count
+  from zero again once the plan has run ``settle_ticks`` ticks without failing (progress).
+- ``RoundRobin`` (Nav2's RoundRobin): each activation starts at the child after the one that
+  ran last; a child that fails (or does not apply) hands on to the next; it fails when every
+  child failed once.
+
+And the recoveries, each a behaviour that applies to some failures and runs library motions
+through the Robot port (``domain.navigation.recovery``): ``BackOff`` from a contact (or out of a
+start where the body rests too close to something), ``SpinToSense`` (turn in place so the head's
+rays look round), ``Reshape`` (another library shape whose lattice reaches the goals) and
+``ClearStaleEvidence`` (forget contact evidence and sensed cells round the robot, then hold still
+while the sensors read again). Each run is a ``recovery`` event in the mission's log.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import py_trees
+from py_trees.common import Status
+
+from app.executor.behaviours import MissionBehaviour
+from domain import navigation
+from domain.triggers import Recovered
+from primitives.grounding import TICK, Grounded, ground
+from primitives.library import Primitive
+from primitives.shapes import SHAPES
+from sim.controls import FixedShape
+
+
+class RecoveryNode(py_trees.composites.Composite):
+    """Runs ``pipeline``; on its failure runs ``recovery``, then ``pipeline`` again (see the
+    module's docstring)."""
+
+    def __init__(
+        self,
+        name: str,
+        pipeline: py_trees.behaviour.Behaviour,
+        recovery: py_trees.behaviour.Behaviour,
+        retries: int,
+        settle_ticks: int,
+    ) -> None:
+        super().__init__(name, [pipeline, recovery])
+        self.retries, self.settle_ticks = retries, settle_ticks
+        self.in_a_row = 0  # recoveries since the plan last ran settle_ticks ticks
+        self.running_ticks = 0
+        self.recovering = False
+
+    def tick(self) -> Iterator[py_trees.behaviour.Behaviour]:
+        if self.status != Status.RUNNING:
+            self.in_a_row, self.running_ticks, self.recovering = 0, 0, False
+            self.initialise()
+        pipeline, recovery = self.children
+        while True:
+            child = recovery if self.recovering else pipeline
+            self.current_child = child
+            for node in child.tick():
+                yield node
+            if not self.recovering:
+                if child.status == Status.SUCCESS:
+                    self.stop(Status.SUCCESS)
+                    yield self
+                    return
+                if child.status == Status.RUNNING:
+                    self.running_ticks += 1
+                    if self.running_ticks >= self.settle_ticks:
+                        self.in_a_row = 0  # the plan runs again: progress
+                    self._report(f"following; {self.in_a_row} recoveries in a row")
+                    self.status = Status.RUNNING
+                    yield self
+                    return
+                if self.in_a_row >= self.retries:
+                    self._report(f"gave up after {self.in_a_row} recoveries in a row")
+                    self.stop(Status.FAILURE)
+                    yield self
+                    return
+                self.recovering, self.running_ticks = True, 0
+                continue  # the recoveries, in this same tick
+            if child.status == Status.RUNNING:
+                self._report(f"recovering ({self.in_a_row + 1} of at most {self.retries})")
+                self.status = Status.RUNNING
+                yield self
+                return
+            if child.status == Status.FAILURE:
+                self._report("no recovery applies")
+                self.stop(Status.FAILURE)
+                yield self
+                return
+            self.in_a_row += 1
+            self.recovering = False
+            self._report(f"recovered; {self.in_a_row} recoveries in a row")
+            self.status = Status.RUNNING  # the plan again on the next tick (re-ticked at once)
+            yield self
+            return
+
+    def _report(self, message: str) -> None:
+        self.feedback_message = message
+
+    def stop(self, new_status: Status = Status.INVALID) -> None:
+        for child in self.children:
+            if child.status == Status.RUNNING:
+                child.stop(Status.INVALID)
+        super().stop(new_status)
+
+
+class RoundRobin(py_trees.composites.Composite):
+    """Ticks its children in turn across activations (see the module's docstring)."""
+
+    def __init__(self, name: str, children: Sequence[py_trees.behaviour.Behaviour]) -> None:
+        super().__init__(name, list(children))
+        self.next = 0
+        self.tried = 0
+
+    def tick(self) -> Iterator[py_trees.behaviour.Behaviour]:
+        if self.status != Status.RUNNING:
+            self.tried = 0
+            self.initialise()
+        while True:
+            child = self.children[self.next]
+            self.current_child = child
+            for node in child.tick():
+                yield node
+            if child.status == Status.RUNNING:
+                self.feedback_message = f"running {child.name}"
+                self.status = Status.RUNNING
+                yield self
+                return
+            self.next = (self.next + 1) % len(self.children)
+            if child.status == Status.SUCCESS:
+                self.feedback_message = f"{child.name} done"
+                self.stop(Status.SUCCESS)
+                yield self
+                return
+            self.tried += 1
+            if self.tried >= len(self.children):
+                self.feedback_message = "none applies"
+                self.stop(Status.FAILURE)
+                yield self
+                return
+
+    def stop(self, new_status: Status = Status.INVALID) -> None:
+        for child in self.children:
+            if child.status == Status.RUNNING:
+                child.stop(Status.INVALID)
+        super().stop(new_status)
+
+
+@dataclass
+class _Step:
+    """A motion a recovery runs: screw speeds and joints for a number of model seconds."""
+
+    grounded: Grounded
+    left: float
+    label: str
+
+
+class Recovery(MissionBehaviour):
+    """A recovery: ``applies`` says whether it can help with the failure at hand (else it
+    fails at once, and the next recovery is tried); ``steps`` are the motions it runs."""
+
+    what = "recovery"
+
+    def initialise(self) -> None:
+        self.why = self.ctx.failure_reason or ""
+        steps = self.plan() if self.applies() else None
+        self.applicable = steps is not None
+        self.steps: list[_Step] = steps or []
+        self.ran = 0
+        if self.applicable:
+            self.ctx.event("recovery", recovery=self.name, because=self.why, moves=self.labels())
+
+    def applies(self) -> bool:
+        """Whether this recovery can help with the failure at hand."""
+        raise NotImplementedError
+
+    def plan(self) -> list[_Step] | None:
+        """The motions to run (``None``: none can be made here, so it does not apply)."""
+        raise NotImplementedError
+
+    def done(self) -> None:
+        """What the recovery does when its motions are over (before the plan runs again)."""
+
+    def update(self) -> Status:
+        ctx = self.ctx
+        if not self.applicable:
+            self.feedback_message = f"does not apply ({self.why or 'no failure'})"
+            return Status.FAILURE
+        if self.ran and ctx.contact is not None:
+            self.feedback_message = "stopped by a contact"
+            self._finish("stopped by a contact")
+            return Status.SUCCESS  # the plan's pipeline fails on the contact: back off next
+        while self.steps and self.steps[0].left <= 1e-9:
+            self.steps.pop(0)
+        if not self.steps:
+            self.done()
+            self._finish("done")
+            self.feedback_message = "done"
+            return Status.SUCCESS
+        step = self.steps[0]
+        step.left -= TICK
+        self.ran += 1
+        g = step.grounded
+        ctx.command = FixedShape.of(g.theta, g.joints)
+        ctx.current_action = f"({self.what} {step.label})"
+        ctx.grounding = g.to_dict()
+        self.feedback_message = f"{step.label}: {step.left + TICK:.2f} s left"
+        return Status.RUNNING
+
+    def labels(self) -> list[str]:
+        return [s.label for s in self.steps]
+
+    def _finish(self, outcome: str) -> None:
+        ctx = self.ctx
+        ctx.trigger = Recovered(self.name, self.why)
+        ctx.recoveries += 1
+        ctx.event("recovery_done", recovery=self.name, outcome=outcome)
+
+    @staticmethod
+    def run(entry: Primitive) -> _Step:
+        """A library primitive run as it is."""
+        assert entry.end_pose is not None
+        grounded = ground(entry.end_pose, [], entry)
+        return _Step(grounded, grounded.duration, entry.id)
+
+
+class BackOff(Recovery):
+    """After a contact (or from a start the body rests too close to something): the shape's
+    shortest translations away from the touched side (``back_off_steps`` of them)."""
+
+    what = "back-off"
+
+    def applies(self) -> bool:
+        return self.ctx.contact is not None or self.ctx.plan_failure == "start_blocked"
+
+    def plan(self) -> list[_Step] | None:
+        ctx = self.ctx
+        contact = ctx.contact
+        ctx.contact = None  # dealt with here (a new one is a new contact)
+        moves = navigation.back_off(
+            ctx.library,
+            ctx.shape,
+            ctx.joints,
+            ctx.world,
+            ctx.pose,
+            contact.side if contact is not None else None,
+            contact.part if contact is not None else None,
+            ctx.settings,
+        )
+        return [self.run(m) for m in moves] or None
+
+
+class SpinToSense(Recovery):
+    """When planning found no way (it ran out of search, or sensed obstacles close it): the
+    largest turn in place the body can make, the other way each time, so the head looks."""
+
+    what = "spin"
+
+    def applies(self) -> bool:
+        failure = self.ctx.plan_failure
+        return failure == "timeout" or (
+            failure == "unreachable" and self.ctx.plan_proof == "sensed"
+        )
+
+    def plan(self) -> list[_Step] | None:
+        ctx = self.ctx
+        ctx.spin_direction = -ctx.spin_direction
+        turn = navigation.spin(
+            ctx.library, ctx.shape, ctx.joints, ctx.world, ctx.pose, ctx.settings,
+            ctx.spin_direction,
+        )  # fmt: skip
+        return [self.run(turn)] if turn is not None else None
+
+
+class Reshape(Recovery):
+    """When the body's shape finds no plan: change into the nearest other library shape that
+    can be taken here and whose lattice can reach every goal (never for a body the
+    environment deformed: it holds what it was forced into)."""
+
+    what = "reshape"
+
+    def applies(self) -> bool:
+        ctx = self.ctx
+        return not ctx.deformed and ctx.plan_failure in ("unreachable", "timeout", "no_primitives")
+
+    def plan(self) -> list[_Step] | None:
+        ctx = self.ctx
+        goals = ctx.situation().goals
+        options = navigation.reshape_options(
+            ctx.library, ctx.shape, ctx.joints, ctx.world, ctx.pose, goals, ctx.settings, ctx.view
+        )
+        options = [o for o in options if o not in ctx.shapes_tried]
+        if not options:
+            return None
+        self.target = options[0]
+        ctx.shapes_tried.add(ctx.shape)
+        joints = np.asarray(SHAPES[self.target].joints, dtype=float)
+        duration = navigation.reshape_duration(ctx.joints, joints, TICK)
+        change = Grounded(np.zeros(4), joints, duration, "library", (), np.zeros(3))
+        return [_Step(change, duration, f"into {self.target}")]
+
+    def done(self) -> None:
+        ctx = self.ctx
+        previous = ctx.shape
+        ctx.shape = self.target
+        a, b, c = (float(v) for v in SHAPES[self.target].joints)
+        ctx.joints = (a, b, c)
+        ctx.event("shape_change", shape=self.target, previous=previous)
+
+
+class ClearStaleEvidence(Recovery):
+    """When sensed obstacles or contact evidence may be what closes the way: forget them round
+    the robot (``clear_radius``), then hold still for ``wait_ticks`` while the sensors read
+    again (what is real comes back)."""
+
+    what = "clear"
+
+    def applies(self) -> bool:
+        ctx = self.ctx
+        failure = ctx.plan_failure
+        return failure == "timeout" or (failure == "unreachable" and ctx.plan_proof == "sensed")
+
+    def plan(self) -> list[_Step] | None:
+        ctx = self.ctx
+        x, y, _ = ctx.pose
+        if not ctx.world.clear_evidence((x, y), ctx.settings.recovery.clear_radius):
+            return None  # nothing there to clear
+        joints = np.asarray(ctx.joints, dtype=float)
+        hold = Grounded(np.zeros(4), joints, 0.0, "library", (), np.zeros(3))
+        ticks = ctx.settings.recovery.wait_ticks
+        return [_Step(hold, ticks * TICK, "wait")] if ticks else []
+
+
+def recovery_tree(ns: str) -> py_trees.behaviour.Behaviour:
+    """Back off first when it applies (a contact), else the others in turn."""
+    return py_trees.composites.Selector(
+        "recover",
+        memory=False,
+        children=[
+            BackOff("back off", ns),
+            RoundRobin(
+                "sense and retry",
+                [
+                    SpinToSense("spin to sense", ns),
+                    Reshape("reshape", ns),
+                    ClearStaleEvidence("clear stale evidence", ns),
+                ],
+            ),
+        ],
+    )

@@ -1,0 +1,353 @@
+"""What each motion out of a lattice state costs, and whether it is valid at all.
+
+A motion is **valid** where every swept sample point keeps the clearance it needs plus the
+margin from the lethal layer, and it ends on the grid. A valid motion **costs**, in metres,
+
+    length x (1 + inflation_penalty x closeness)
+      + contact_cost x P(contact) + blocked_cost x P(blocked),
+
+where ``closeness = exp(-slack / inflation_decay)`` at the body's closest point (slack: its
+clearance beyond need and margin; nothing past ``inflation_radius``), Nav2's inflation and
+cost penalty measured on the swept body itself; ``P(contact) = 1 - P(every blind new cell
+free)`` with the costmap's risk, and ``P(blocked)`` the same over the new cells the head sees
+first, with what may block them (``domain.world``: log P(free) per cell, summed over the
+motion's cells, ``motions``). So the tail's risk belongs to the motion that takes it there: a
+turn in place, a sideways or a tail-first move through never-observed space or past contact
+evidence costs what it risks; a head-first move, whose rays look first, only what it may find
+in its way (a gap in a wall seen as a dashed line).
+
+The evaluation is compiled and in two parts, what the lethal layer decides (validity, length
+and closeness: it changes seldom) and what the soft layers risk (it changes every tick near the
+robot), so a cache keeps each apart; the search kernel and pyperplan's searches (through
+``LatticeTask``) call the same functions, so every path reads the same numbers.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from domain.kernels import jit
+from domain.navigation.lattice.motions import MotionTable
+from domain.navigation.settings import CostSettings
+from sim.robot import Array
+
+
+@dataclass(frozen=True)
+class KernelTable:
+    """A motion table as the kernels read it, per bin padded to the longest bin: the cells
+    each motion's sample points fall in (``checks`` ``[K, C, 2]``) with the clearance at which
+    a cell's centre passes all its points and below which one fails, with the margin
+    (``check_needs``, ``check_fails``; ``motions.CellChecks``), the points by cell
+    (``grouped`` ``[K, P, 3]``: x, y, need with the margin; ``check_points``: each cell's
+    bounds), each motion's cells (``check_segments``), the motions' cell deltas, lengths and
+    new cells (``cells`` ``[K, N, 3]``: di, dj, blind; ``cell_segments``)."""
+
+    checks: NDArray[np.int64]
+    check_needs: Array
+    check_fails: Array
+    check_points: NDArray[np.int64]
+    grouped: Array
+    check_segments: NDArray[np.int64]
+    deltas: NDArray[np.int64]
+    cell_reach: NDArray[np.int64]
+    lengths: Array
+    cells: NDArray[np.int64]
+    cell_segments: NDArray[np.int64]
+    open_need: float  # centroid clearance beyond which every point keeps its need + margin
+
+
+_TABLES: dict[tuple[int, float], tuple[MotionTable, KernelTable]] = {}
+TABLES_KEPT = 16
+
+
+def kernel_table(table: MotionTable, margin: float) -> KernelTable:
+    """The kernels' form of ``table`` for motions keeping ``margin`` (made once per table)."""
+    key = (id(table), margin)
+    got = _TABLES.get(key)
+    if got is not None and got[0] is table:
+        return got[1]
+    K, M = table.deltas.shape[:2]
+    n_checks = max(1, max(len(c) for c in table.checks))
+    n_points = max(1, max(len(g) for g in table.grouped))
+    n_cells = max(1, max(len(c) for c in table.cells))
+    checks = np.zeros((K, n_checks, 2), dtype=np.int64)
+    check_needs = np.zeros((K, n_checks))
+    check_fails = np.zeros((K, n_checks))
+    check_points = np.zeros((K, n_checks + 1), dtype=np.int64)
+    grouped = np.zeros((K, n_points, 3))
+    check_segments = np.zeros((K, M + 1), dtype=np.int64)
+    cells = np.zeros((K, n_cells, 3), dtype=np.int64)
+    cell_segments = np.zeros((K, M + 1), dtype=np.int64)
+    for k in range(K):
+        checks[k, : len(table.checks[k])] = table.checks[k]
+        n = len(table.check_needs[k])
+        check_needs[k, :n] = table.check_needs[k] + margin
+        check_fails[k, :n] = table.check_fails[k] + margin
+        check_points[k, : n + 1] = table.check_points[k]
+        g = table.grouped[k]
+        grouped[k, : len(g), :2] = g[:, :2]
+        grouped[k, : len(g), 2] = g[:, 2] + margin
+        check_segments[k] = table.check_segments[k]
+        cells[k, : len(table.cells[k])] = table.cells[k]
+        cell_segments[k] = table.cell_segments[k]
+    out = KernelTable(
+        checks,
+        check_needs,
+        check_fails,
+        check_points,
+        grouped,
+        check_segments,
+        np.ascontiguousarray(table.deltas, dtype=np.int64),
+        np.asarray(table.cell_reach, dtype=np.int64),
+        np.ascontiguousarray(table.lengths, dtype=np.float64),
+        cells,
+        cell_segments,
+        table.open_clearance + table.settings.resolution + margin,
+    )
+    if len(_TABLES) >= TABLES_KEPT:
+        _TABLES.clear()
+    _TABLES[key] = (table, out)
+    return out
+
+
+def cost_parameters(costs: CostSettings) -> Array:
+    """``[inflation radius, decay, penalty, contact cost, blocked cost]`` for the kernels."""
+    return np.array(
+        [
+            costs.inflation_radius,
+            costs.inflation_decay,
+            costs.inflation_penalty,
+            costs.contact_cost,
+            costs.blocked_cost,
+        ]
+    )
+
+
+@jit
+def lethal_at(  # pragma: no cover - compiled
+    values: Array, geo: Array, x: float, y: float
+) -> float:
+    """The lethal clearance at one point: bilinear between cell centres (``values`` ``[nx,
+    ny]``), at most the distance to the walls (``geo``: ox, oy, resolution, xmin, xmax, ymin,
+    ymax), as ``domain.world.interpolate.bilinear`` computes it."""
+    nx, ny = values.shape
+    ox, oy, res = geo[0], geo[1], geo[2]
+    u = min(max((x - ox) / res - 0.5, 0.0), nx - 1.0)
+    v = min(max((y - oy) / res - 0.5, 0.0), ny - 1.0)
+    i0 = min(int(u), max(nx - 2, 0))
+    j0 = min(int(v), max(ny - 2, 0))
+    fu, fv = u - i0, v - j0
+    i1 = i0 + 1 if nx > 1 else i0
+    j1 = j0 + 1 if ny > 1 else j0
+    low = values[i0, j0] * (1 - fv) + values[i0, j1] * fv
+    high = values[i1, j0] * (1 - fv) + values[i1, j1] * fv
+    wall = min(min(x - geo[3], geo[4] - x), min(y - geo[5], geo[6] - y))
+    return float(min(low * (1 - fu) + high * fu, wall))
+
+
+@jit
+def lethal_part(  # pragma: no cover - compiled
+    number: int,
+    nx: int,
+    ny: int,
+    values: Array,
+    geo: Array,
+    open_need: float,
+    checks: Array,
+    check_needs: Array,
+    check_fails: Array,
+    check_points: Array,
+    grouped: Array,
+    check_segments: Array,
+    deltas: Array,
+    cell_reach: Array,
+    lengths: Array,
+    params: Array,
+    base: Array,
+) -> int:
+    """The valid motions of state ``number`` as a bitmask (bit ``m``: motion ``m``), and into
+    ``base`` each valid motion's length and closeness cost (``inf`` for the others): what the
+    lethal layer alone decides. Each motion's cells are read at their centres (``values``: the
+    lethal clearance there); a cell whose clearance neither passes nor fails all its points
+    (``KernelTable``) reads its points exactly, between the centres (``lethal_at``; ``geo``:
+    the grid and its walls). ``open_need``: the centroid clearance past which every point of
+    every motion keeps its need and more than the inflation radius (open space: nothing is
+    read); ``params``: ``cost_parameters``. A motion reaching off the grid is invalid."""
+    plane = nx * ny
+    k, cell = number // plane, number % plane
+    i, j = cell // ny, cell % ny
+    cx = geo[0] + (i + 0.5) * geo[2]
+    cy = geo[1] + (j + 0.5) * geo[2]
+    n_motions = check_segments.shape[1] - 1
+    radius, decay, penalty = params[0], params[1], params[2]
+    open_space = values[i, j] >= open_need + radius
+    reach = cell_reach[k]
+    edge = not (reach <= i < nx - reach and reach <= j < ny - reach)
+    bits = 0
+    for m in range(n_motions):
+        base[m] = math.inf
+        if edge:
+            ni, nj = i + deltas[k, m, 0], j + deltas[k, m, 1]
+            if not (0 <= ni < nx and 0 <= nj < ny):
+                continue
+        slack = math.inf
+        ok = True
+        if not open_space:
+            for c in range(check_segments[k, m], check_segments[k, m + 1]):
+                ci, cj = i + checks[k, c, 0], j + checks[k, c, 1]
+                if ci < 0 or ci >= nx or cj < 0 or cj >= ny:
+                    ok = False
+                    break
+                here = values[ci, cj]
+                if here >= check_needs[k, c]:
+                    s = here - check_needs[k, c]  # (a bound: every point keeps at least this)
+                elif here < check_fails[k, c]:
+                    ok = False
+                    break
+                else:  # between: the points themselves
+                    s = math.inf
+                    for q in range(check_points[k, c], check_points[k, c + 1]):
+                        x, y = cx + grouped[k, q, 0], cy + grouped[k, q, 1]
+                        t = lethal_at(values, geo, x, y) - grouped[k, q, 2]
+                        if t < s:
+                            s = t
+                    if not s >= 0.0:
+                        ok = False
+                        break
+                if s < slack:
+                    slack = s
+        if not ok:
+            continue
+        bits |= 1 << m
+        close = math.exp(-slack / decay) if slack < radius else 0.0
+        base[m] = lengths[m] * (1.0 + penalty * close)
+    return bits
+
+
+@jit
+def risk_part(  # pragma: no cover - compiled
+    number: int,
+    nx: int,
+    ny: int,
+    risk: Array,
+    blocked: Array,
+    quiet: Array,
+    cells: Array,
+    cell_segments: Array,
+    params: Array,
+    extra: Array,
+) -> None:
+    """Into ``extra``, what each motion of state ``number`` risks, valid or not: ``contact
+    cost x P(contact)`` over its blind new cells (``risk``: log P(free) per cell) and
+    ``blocked cost x P(blocked)`` over those the head sees first (``blocked``); 0 from a cell
+    where ``quiet`` holds (no risk within any motion's reach)."""
+    plane = nx * ny
+    k, cell = number // plane, number % plane
+    i, j = cell // ny, cell % ny
+    n_motions = cell_segments.shape[1] - 1
+    contact, block = params[3], params[4]
+    calm = quiet[i, j]
+    for m in range(n_motions):
+        unseen = 0.0  # log P(free) of the blind new cells
+        seen = 0.0  # ... and of those the head sees first
+        for c in range(cell_segments[k, m], cell_segments[k, m + 1] if not calm else 0):
+            ci, cj = i + cells[k, c, 0], j + cells[k, c, 1]
+            if 0 <= ci < nx and 0 <= cj < ny:
+                if cells[k, c, 2]:
+                    unseen += risk[ci, cj]
+                else:
+                    seen += blocked[ci, cj]
+        extra[m] = contact * (1.0 - math.exp(unseen)) + block * (1.0 - math.exp(seen))
+
+
+@jit
+def add_costs(base: Array, extra: Array, costs: Array) -> None:  # pragma: no cover - compiled
+    """A motion's cost: its base (inf when invalid) plus its risk."""
+    for m in range(base.shape[0]):
+        costs[m] = base[m] + extra[m]
+
+
+@dataclass
+class CostInputs:
+    """What ``evaluate`` reads of one search's world: the grid's numbers, the lethal
+    clearance and its geometry, the risk of blind and of seen cells (and where there is
+    none within a motion's reach), the cost parameters."""
+
+    nx: int
+    ny: int
+    gf: Array
+    values: Array
+    geo: Array
+    risk: Array
+    blocked: Array
+    quiet: Array
+    params: Array
+
+
+def lethal_costs(
+    number: int, inputs: CostInputs, kt: KernelTable
+) -> tuple[int, NDArray[np.float64]]:
+    """``lethal_part`` of one state from Python: its valid motions' bitmask and base costs."""
+    base = np.empty(kt.check_segments.shape[1] - 1)
+    bits = lethal_part(
+        number, inputs.nx, inputs.ny, inputs.values, inputs.geo, kt.open_need, kt.checks,
+        kt.check_needs, kt.check_fails, kt.check_points, kt.grouped, kt.check_segments,
+        kt.deltas, kt.cell_reach, kt.lengths, inputs.params, base,
+    )  # fmt: skip
+    return int(bits), base
+
+
+def risk_costs(number: int, inputs: CostInputs, kt: KernelTable) -> NDArray[np.float64]:
+    """``risk_part`` of one state from Python."""
+    extra = np.empty(kt.cell_segments.shape[1] - 1)
+    risk_part(
+        number, inputs.nx, inputs.ny, inputs.risk, inputs.blocked, inputs.quiet, kt.cells,
+        kt.cell_segments, inputs.params, extra,
+    )  # fmt: skip
+    return extra
+
+
+def state_costs(
+    number: int, inputs: CostInputs, kt: KernelTable
+) -> tuple[int, NDArray[np.float64]]:
+    """A state's valid motions (bitmask) and their costs (``inf`` for the invalid ones)."""
+    bits, base = lethal_costs(number, inputs, kt)
+    return bits, base + risk_costs(number, inputs, kt)
+
+
+def quiet_cells(risk: Array, blocked: Array, reach: int) -> NDArray[np.bool_]:
+    """Per cell, whether no cell within ``reach`` cells (a box) has any risk: a motion from
+    there reads none (a box sum of the cells with some, from one cumulative sum)."""
+    some = ((risk != 0.0) | (blocked != 0.0)).astype(np.int64)
+    nx, ny = some.shape
+    total = np.zeros((nx + 1, ny + 1), dtype=np.int64)
+    total[1:, 1:] = some.cumsum(axis=0).cumsum(axis=1)
+    i0 = np.clip(np.arange(nx) - reach, 0, nx)
+    i1 = np.clip(np.arange(nx) + reach + 1, 0, nx)
+    j0 = np.clip(np.arange(ny) - reach, 0, ny)
+    j1 = np.clip(np.arange(ny) + reach + 1, 0, ny)
+    box = (
+        total[i1][:, j1] - total[i0][:, j1] - total[i1][:, j0] + total[i0][:, j0]
+    )
+    out: NDArray[np.bool_] = box == 0
+    return out
+
+
+def with_start_margins(
+    kt: KernelTable, k: int, shift: Array, point_shift: Array
+) -> KernelTable:
+    """``kt`` with bin ``k``'s margins moved by ``shift`` per cell and ``point_shift`` per
+    grouped point (the start's own allowance: ``Planner.start_table``)."""
+    passes, fails = np.array(kt.check_needs, copy=True), np.array(kt.check_fails, copy=True)
+    grouped = np.array(kt.grouped, copy=True)
+    passes[k, : len(shift)] += shift
+    fails[k, : len(shift)] += shift
+    grouped[k, : len(point_shift), 2] += point_shift
+    return dataclasses.replace(
+        kt, check_needs=passes, check_fails=fails, grouped=grouped, open_need=math.inf
+    )

@@ -1,0 +1,425 @@
+"""Plans tours of goals on the lattice of one body: ``PlanRequest -> Plan | Failure``.
+
+One replan: the costmap's two views read once (``inputs``); where the request carries the plan
+being run and only a local change broke it, a local repair (``repair``); otherwise, per goal,
+the obstacle heuristic's map (an infinite distance at the start proves the goal enclosed),
+unordered goals ordered by those maps, and one cost search per leg. A leg whose search spends
+its budget ends the plan at its best node (a partial plan: the robot goes there, senses, and
+plans again) if that is closer, else the feasibility check decides between a proof that the
+goal is out of reach and a timeout. ``Failure``s are typed; soft costs never cause one.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from domain.goal_order import LegGoal, order_goals
+from domain.navigation import search as searches
+from domain.navigation.feasibility import Feasibility
+from domain.navigation.lattice.cache import MotionCache
+from domain.navigation.lattice.costs import (
+    CostInputs,
+    KernelTable,
+    cost_parameters,
+    kernel_table,
+    quiet_cells,
+    state_costs,
+    with_start_margins,
+)
+from domain.navigation.lattice.grid import Key, LatticeGrid
+from domain.navigation.lattice.motions import MotionTable, body_key
+from domain.navigation.lattice.states import StatePool
+from domain.navigation.lattice.task import LatticeTask
+from domain.navigation.plan import Failure, Plan, PlanAction, PlanRequest, Proof
+from domain.navigation.repair import Repairer, leg_reach
+from domain.navigation.search.heuristic import CostHeuristic, cost_map, step_weights, way_of
+from domain.navigation.settings import NavigationSettings
+from domain.pyperplan_adapter import HEURISTICS, CancelFlag, SearchStopped, stop_if_due
+from domain.world import WorldModel
+from sim.robot import Array
+from sim.world import Bounds
+
+CACHES_KEPT = 8  # motion caches kept (one per body and margin); the least recently used goes
+MAPS_KEPT = 64  # heuristic maps kept (then all are dropped: a new world needs new ones)
+
+
+class Planner:
+    """Plans on the lattice of a body against a world model's costmap."""
+
+    def __init__(
+        self,
+        bounds: Bounds,
+        settings: NavigationSettings = NavigationSettings(),  # noqa: B008 (frozen)
+        search: str = searches.COST_SEARCH,
+        heuristic: str = "cost",
+        time_limit: float = 5.0,
+    ) -> None:
+        if search not in searches.SEARCH_NAMES:
+            raise ValueError(f"search: one of {', '.join(searches.SEARCH_NAMES)}")
+        if heuristic != "cost" and heuristic not in HEURISTICS:
+            raise ValueError(f"heuristic: 'cost' or one of {', '.join(HEURISTICS)}")
+        if search == searches.COST_SEARCH and heuristic != "cost":
+            raise ValueError("heuristic: the cost search takes the cost heuristic")
+        self.grid = LatticeGrid(bounds, settings)
+        self.settings = settings
+        self.search, self.heuristic, self.time_limit = search, heuristic, time_limit
+        self.states = StatePool()  # search states shared by every search on this grid
+        self._caches: dict[tuple[Any, ...], MotionCache] = {}
+        self._maps: dict[tuple[Any, ...], Array] = {}
+        self.repairer = Repairer(self)
+
+    # -- lattice states ---------------------------------------------------------------------
+    def key_of(self, table: MotionTable, pose: Sequence[float]) -> Key:
+        """The lattice state of a real pose: its centroid's cell and nearest orientation."""
+        p = np.asarray(pose, dtype=float)
+        c = table.centroid(p)
+        i, j = self.grid.cell(float(c[0]), float(c[1]))
+        k = round(float(p[2]) / self.settings.step) % self.settings.orientations
+        return i, j, k
+
+    def pose_of(self, table: MotionTable, key: Key) -> Array:
+        """The tracked-point pose of ``table``'s body at lattice state ``key``."""
+        i, j, k = key
+        return table.pose_of_centroid(self.grid.centre(i, j), k)
+
+    # -- what one replan reads --------------------------------------------------------------
+    def inputs(
+        self, world: WorldModel, table: MotionTable, near: tuple[float, float] | None = None
+    ) -> CostInputs:
+        """The costmap's views as ``table``'s cost evaluation reads them (the risk of
+        never-observed space within the costmap's horizon of ``near``, the robot's centroid)."""
+        grid, b = self.grid, self.grid.bounds
+        lethal = world.lethal_clearance()
+        if lethal.shape != (grid.nx, grid.ny):
+            raise ValueError("the world model's grid and the lattice's differ")
+        gf = np.array([b.xmin, b.ymin, self.settings.resolution])
+        geo = np.array([b.xmin, b.ymin, self.settings.resolution, b.xmin, b.xmax, b.ymin, b.ymax])
+        params = cost_parameters(self.settings.costs)
+        risk = world.risk(near, world.settings.unobserved_horizon)
+        blocked = world.blocked()
+        quiet = quiet_cells(risk, blocked, table.cell_reach_new + 1)
+        return CostInputs(grid.nx, grid.ny, gf, lethal, geo, risk, blocked, quiet, params)
+
+    def tables(
+        self, table: MotionTable, start: Key | None = None, inputs: CostInputs | None = None
+    ) -> tuple[KernelTable, KernelTable]:
+        """The kernel tables of a leg: its motions at the margin, and out of ``start`` (the
+        robot's state: ``start_table``; ``None`` for a later leg, at the margin)."""
+        kt = kernel_table(table, self.settings.margin)
+        if start is None or inputs is None:
+            return kt, kt
+        return kt, self.start_table(table, start, inputs)
+
+    def start_table(self, table: MotionTable, start: Key, inputs: CostInputs) -> KernelTable:
+        """The motions out of where the robot rests: at ``start_margin``, but near where the
+        resting body already keeps less (it just stopped against something, or sensing
+        rounds a surface it passes closely onto the cells round it), as close as it already
+        is and no closer: a body can always move in a way that brings no part of it nearer
+        to anything than it is, and it must not swing its far end in as deep."""
+        s = self.settings
+        kt = kernel_table(table, s.start_margin)
+        i, j, k = start
+        r = self.settings.resolution
+        body = table.body_checks[k]  # the resting body's cells, as the checks read them
+        bi, bj = i + body[:, 0], j + body[:, 1]
+        inside = (bi >= 0) & (bi < self.grid.nx) & (bj >= 0) & (bj < self.grid.ny)
+        clear = np.full(len(body), -np.inf)
+        clear[inside] = inputs.values[bi[inside], bj[inside]]
+        slack = clear - table.body_check_needs[k]
+        close = slack < s.start_margin
+        if not close.any():
+            return kt
+        relaxed = min(s.start_margin, float(np.min(slack)) - s.touch_deeper)
+        sites = body[close] * r
+
+        def near(points: Array) -> Array:
+            gap = points[:, None, :] - sites[None, :, :]
+            out: Array = np.min(np.einsum("nsd,nsd->ns", gap, gap), axis=1) <= s.touch_radius**2
+            return out
+
+        shift = np.where(near(table.checks[k] * r), relaxed - s.start_margin, 0.0)
+        point_shift = np.where(near(table.grouped[k][:, :2]), relaxed - s.start_margin, 0.0)
+        return with_start_margins(kt, k, shift, point_shift)
+
+    def cache(self, table: MotionTable, world: WorldModel, inputs: CostInputs) -> MotionCache:
+        """The body's motion cache, refreshed to the world model (one per body and margin;
+        the least recently used goes past ``CACHES_KEPT``)."""
+        s = self.settings
+        key = (*body_key(table), s.margin)
+        cache = self._caches.pop(key, None)
+        if cache is None:
+            if len(self._caches) >= CACHES_KEPT:
+                del self._caches[next(iter(self._caches))]
+            cap = table.largest_need + s.margin + s.costs.inflation_radius + s.resolution
+            cache = MotionCache(self.grid, table, cap)
+        self._caches[key] = cache  # (the newest last)
+        version = (id(world), world.version, world.soft_version, inputs.risk.ctypes.data)
+        cache.refresh(inputs.values, inputs.risk, inputs.blocked, version)
+        return cache
+
+    def heuristic_map(
+        self,
+        table: MotionTable,
+        world: WorldModel,
+        goal: LegGoal,
+        start: tuple[float, float] | None,
+        static: bool = False,
+    ) -> Array:
+        """The obstacle heuristic's map of ``goal`` for this body (cells near ``start``
+        passable), on the lethal layer or, with ``static``, on the known map alone."""
+        version = ("static", len(world.known)) if static else world.version
+        key = (id(world), version, body_key(table), goal.x, goal.y, goal.tolerance, start)
+        got = self._maps.get(key)
+        if got is None:
+            clear = world.static_clearance() if static else world.lethal_clearance()
+            at = np.ascontiguousarray(clear, dtype=float).ravel()
+            beyond = None if static else world.continuation().ravel()
+            weights = step_weights(at, self.settings.margin, self.settings.costs, beyond, self.settings.resolution)
+            free = float(np.linalg.norm(table.offset)) + goal.tolerance
+            need = table.centroid_need()
+            got = cost_map(
+                self.grid,
+                at,
+                (goal.x, goal.y),
+                need,
+                free,
+                weights,
+                start,
+                roomy=need + self.settings.margin,
+                narrow_weight=self.settings.costs.narrow_weight,
+                turning=need + self.settings.margin + table.turn_room,
+                cramped_weight=self.settings.costs.cramped_weight,
+            )
+            if len(self._maps) >= MAPS_KEPT:
+                self._maps.clear()
+            self._maps[key] = got
+        return got
+
+    def task(
+        self,
+        table: MotionTable,
+        inputs: CostInputs,
+        cache: MotionCache,
+        start: Key,
+        goal: LegGoal,
+        first: bool,
+        deadline: float,
+        cancel: CancelFlag | None,
+    ) -> LatticeTask:
+        """The task of one leg: from ``start`` to the tracked point on ``goal``."""
+        kt, kt_start = self.tables(table, start if first else None, inputs)
+        task = LatticeTask(
+            self.grid,
+            table,
+            inputs,
+            kt,
+            kt_start,
+            start,
+            (goal.x, goal.y),
+            leg_reach(goal),
+            goal.index,
+            self.states,
+            cache,
+        )
+        task.deadline, task.cancel = deadline, cancel
+        return task
+
+    def leg_heuristic(self, task: LatticeTask, distances: Array) -> CostHeuristic:
+        """A leg's obstacle heuristic with the turn onto the way (``CostHeuristic``)."""
+        grid, table = self.grid, task.table
+        reach = float(np.linalg.norm(table.offset))
+        key = ("way", id(distances))
+        way = self._maps.get(key)
+        if way is None or self._maps.get(("way-of", id(distances))) is not distances:
+            way = way_of(distances)
+            self._maps[key], self._maps[("way-of", id(distances))] = way, distances
+        align = (
+            way,
+            task.inputs.risk,
+            table.turn_cost,
+            table.blind_per_radian,
+            self.settings.costs.contact_cost,
+        )
+        whole = (slice(0, grid.nx), slice(0, grid.ny))
+        return CostHeuristic(task, distances, whole, reach, align=align)
+
+    # -- planning -----------------------------------------------------------------------------
+    def plan(self, request: PlanRequest) -> Plan | Failure:
+        """A plan from the request's pose through its goals, or why there is none."""
+        started = time.monotonic()
+        deadline = started + self.time_limit
+        try:
+            out = self._plan(request, started, deadline)
+        except SearchStopped as stop:
+            if stop.status == "cancelled":
+                out = Failure("cancelled", "planning cancelled")
+            else:
+                out = Failure(
+                    "timeout",
+                    f"planning timeout: no plan within {self.time_limit:g} s",
+                )
+        elapsed = (time.monotonic() - started) * 1e3
+        if isinstance(out, Failure):
+            return Failure(out.kind, out.reason, out.proof, out.goal, out.expansions, elapsed)
+        out.search_ms = elapsed
+        return out
+
+    def _plan(self, request: PlanRequest, started: float, deadline: float) -> Plan | Failure:
+        table, world = request.table, request.world
+        centroid = table.centroid(np.asarray(request.pose, dtype=float))
+        inputs = self.inputs(world, table, (float(centroid[0]), float(centroid[1])))
+        cache = self.cache(table, world, inputs)
+        start = self.key_of(table, request.pose)
+        if request.previous is not None and self.search == searches.COST_SEARCH:
+            fixed = self.repairer.repair(request, inputs, cache, start, deadline)
+            if fixed is not None:
+                return fixed
+        kt_start = self.start_table(table, start, inputs)
+        if state_costs(self.grid.encode(start), inputs, kt_start)[0] == 0:
+            return Failure(
+                "start_blocked",
+                f"start blocked: no motion of the {table.shape} body keeps its clearance from "
+                "where it stands (it rests closer to something than it may move)",
+            )
+        si, sj, _ = start
+        here = tuple(float(v) for v in self.grid.centre(si, sj))
+        maps: dict[int, Array] = {}
+        for g in request.goals:
+            stop_if_due(request.cancel, deadline)
+            maps[g.index] = self.heuristic_map(table, world, g, (here[0], here[1]))
+            if not math.isfinite(maps[g.index][si, sj]):
+                known = self.heuristic_map(table, world, g, (here[0], here[1]), static=True)
+                proof: Proof = "sensed" if math.isfinite(known[si, sj]) else "known"
+                by = "known obstacles" if proof == "known" else "sensed obstacles"
+                return Failure(
+                    "unreachable",
+                    f"unreachable: goal {g.index} at ({g.x:g}, {g.y:g}) enclosed by {by}",
+                    proof,
+                    g.index,
+                )
+        order = (
+            list(request.goals)
+            if request.ordered
+            else order_goals(self.grid, request.goals, maps, (si, sj))
+        )
+        plan = Plan([], [g.index for g in order], shape=table.shape)
+        here_key = start
+        for leg, goal in enumerate(order):
+            task = self.task(table, inputs, cache, here_key, goal, leg == 0, deadline, request.cancel)
+            heuristic = self.leg_heuristic(task, maps[goal.index])
+            s = self.settings.search
+            found = searches.run(
+                task,
+                heuristic,
+                self.search,
+                s.weight,
+                s.expansions,
+                None if self.heuristic == "cost" else self.heuristic,
+            )
+            plan.expansions += found.expansions
+            plan.legs.append(task)
+            if found.status == "solved":
+                assert found.plan is not None
+                actions, here_key = self.actions_of(task, [op.name for op in found.plan], found.plan)
+                plan.actions += actions
+                continue
+            if found.status == "exhausted":
+                return self._unreachable(world, goal, table.shape, "search", plan.expansions)
+            # The budget ran out: go towards the best node if it is closer, unless the
+            # lethal layer proves the goal out of reach.
+            if not Feasibility(self.grid, table, inputs.values, self.settings.margin).reaches(
+                here_key, (goal.x, goal.y), leg_reach(goal)
+            ):
+                return self._unreachable(world, goal, table.shape, "body", plan.expansions)
+            start_h = heuristic(_Root(task.initial_state))
+            if found.best and found.best_h < start_h - s.progress:
+                actions, _ = self.actions_of(task, [op.name for op in found.best], found.best)
+                plan.actions += actions
+                plan.partial = True
+                return plan
+            if plan.actions:
+                plan.partial = True  # the legs before it stand: go there, plan again
+                return plan
+            return Failure(
+                "timeout",
+                f"planning timeout: no plan to goal {goal.index} at ({goal.x:g}, {goal.y:g}) "
+                f"within {s.expansions:,} expansions",
+                None,
+                goal.index,
+                plan.expansions,
+            )
+        return plan
+
+    def _unreachable(
+        self,
+        world: WorldModel,
+        goal: LegGoal,
+        shape: str,
+        why: str,
+        expansions: int,
+    ) -> Failure:
+        """No plan reaches ``goal`` (the legs planned before it are no plan either: a later
+        goal of the tour is out of reach)."""
+        proof: Proof = "sensed" if world.sensed_occupied().any() else "known"
+        if why == "search":
+            reason = (
+                f"unreachable: no collision-free sequence of {shape} primitives brings the "
+                f"body to goal {goal.index} at ({goal.x:g}, {goal.y:g})"
+            )
+        else:
+            reason = (
+                f"unreachable: goal {goal.index} at ({goal.x:g}, {goal.y:g}): no "
+                f"collision-free motion of the {shape} body brings its head there"
+            )
+        return Failure("unreachable", reason, proof, goal.index, expansions)
+
+    def actions_of(
+        self, task: LatticeTask, names: list[str], operators: Sequence[Any] = ()
+    ) -> tuple[list[PlanAction], Key]:
+        """A searched plan's operator names (``task``'s) as plan actions, and where it ends."""
+        table = task.table
+        by_name = {name: i for i, name in enumerate(table.names)}
+        costs = [float(getattr(op, "cost", 0.0)) for op in operators] or [0.0] * len(names)
+        here = task.start_key
+        out = []
+        for name, cost in zip(names, costs, strict=True):
+            verb, *args = name.strip("()").split()
+            if verb == "move":
+                source, here = here, self.grid.decode(int(args[1][1:]))
+                m = by_name[args[2]]
+                motion = table.motions[m]
+                target = tuple(float(v) for v in self.pose_of(table, here))
+                out.append(
+                    PlanAction(
+                        "move",
+                        name,
+                        motion.primitive,
+                        (target[0], target[1], target[2]),
+                        motion.duration,
+                        None,
+                        source,
+                        m,
+                        cost,
+                    )
+                )
+            else:
+                target = tuple(float(v) for v in self.pose_of(table, here))
+                out.append(
+                    PlanAction(
+                        "visit", name, None, (target[0], target[1], target[2]), 0.0, task.goal_index
+                    )
+                )
+        return out, here
+
+
+class _Root:
+    """A stand-in search node for evaluating the heuristic at a state."""
+
+    def __init__(self, state: Any) -> None:
+        self.state = state
+

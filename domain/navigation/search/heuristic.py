@@ -1,0 +1,398 @@
+"""The search's heuristic: Smac's obstacle heuristic, a cost-aware 2-D distance to the goal.
+
+A Dijkstra from the goal over the cells the body's centroid can occupy (its clearance keeps the
+centroid's own need, less the half cell diagonal it may sit off a centre: a relaxation, so a
+cell it cannot reach no body motion reaches either), 8-connected, each step costing its length
+times ``1 + inflation_penalty x closeness`` at the cells it joins, closeness measured from the
+corridor's centre line (the clearance beyond a unit's radius and the margin). So the heuristic
+already prefers the roomy way the motions' costs prefer, and an infinite distance at the start
+is the first hard proof that a goal is cut off. Cells within the goal's reach with a straight
+way to it, and the robot's own round its start, are passable whatever their clearance.
+
+A state's heuristic value is the map at its centroid's cell less how far the centroid may stay
+from the goal with the head on it; a repair's (a detour to any of some target states) adds the
+cheapest turn in place to the nearest target heading.
+"""
+
+from __future__ import annotations
+
+import heapq
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from pyperplan.heuristics.heuristic_base import Heuristic
+
+from domain.kernels import AVAILABLE, jit
+from domain.navigation.lattice.grid import LatticeGrid
+from domain.navigation.lattice.states import LatticeState
+from domain.navigation.settings import CostSettings
+from domain.world.grid import cells_round
+from sim.robot import DEFAULT_GEOMETRY, Array
+
+START_FREE = 0.15  # metres around the start centroid that the map always lets through
+
+
+def closeness(slack: Array, costs: CostSettings) -> Array:
+    """Nav2's inflation decay of a slack (m beyond the need and the margin): 1 at 0, falling by
+    e every ``inflation_decay``, 0 past ``inflation_radius``."""
+    s = np.maximum(slack, 0.0)
+    out: Array = np.where(s < costs.inflation_radius, np.exp(-s / costs.inflation_decay), 0.0)
+    return out
+
+
+def step_weights(
+    at_centres: Array,
+    margin: float,
+    costs: CostSettings,
+    continuation: Array | None = None,
+    resolution: float = 0.05,
+) -> Array:
+    """Per cell, what a metre through it costs the heuristic: ``1 + penalty x closeness`` of a
+    unit's radius at the cell centre, plus, with ``continuation`` (log P(free) per cell of
+    sensed obstacles going on), ``blocked_cost`` per cell's worth of it crossed (the cost of
+    crossing a band of such cells is at most that of the body's sweep through them)."""
+    slack = at_centres - DEFAULT_GEOMETRY.unit_radius - margin
+    out: Array = 1.0 + costs.inflation_penalty * closeness(slack, costs)
+    if continuation is not None:
+        out = out - costs.blocked_cost * continuation / resolution
+    return out
+
+
+def cost_map(
+    grid: LatticeGrid,
+    at_centres: Array,
+    goal: tuple[float, float],
+    need: float,
+    free: float,
+    weights: Array,
+    start: tuple[float, float] | None = None,
+    roomy: float | None = None,
+    narrow_weight: float = 1.0,
+    turning: float | None = None,
+    cramped_weight: float = 1.0,
+) -> Array:
+    """Cost-aware geodesic distance (m) from ``goal`` to every centroid cell ``[nx, ny]`` over
+    the cells whose centre keeps ``need`` less half a cell diagonal (``at_centres``: the lethal
+    clearance at ``grid.centres``); cells within ``free`` of the goal with a straight way to
+    it, and those round ``start``, are passable. With ``roomy``, a cell whose clearance is
+    below it (where the body's footprint cannot keep the margin) costs ``narrow_weight`` times
+    as much, and with ``turning`` one below that (where the body cannot change its heading:
+    a bent passage it cannot take) ``cramped_weight`` times: the map is still the relaxation
+    the proofs read (its infinities are unchanged), and it leads the search the way the body
+    fits and can turn. ``inf`` where cut off."""
+    r = grid.settings.resolution
+    ok = at_centres >= need - r * math.sqrt(0.5)
+    if turning is not None and cramped_weight != 1.0:
+        weights = np.where(at_centres >= turning, weights, weights * cramped_weight)
+    if roomy is not None and narrow_weight != 1.0:
+        weights = np.where(at_centres >= roomy, weights, weights * narrow_weight)
+    ok |= in_reach(grid, at_centres, goal, free)
+    if start is not None:  # the robot is there: it may be touching what it just bumped into
+        ok[cells_within(grid, start, START_FREE)] = True
+    gi, gj = grid.cell(*goal)
+    return weighted_geodesic(
+        ok.reshape(grid.nx, grid.ny), weights.reshape(grid.nx, grid.ny), [(gi, gj)], r
+    )
+
+
+def in_reach(
+    grid: LatticeGrid, at_centres: Array, goal: tuple[float, float], free: float
+) -> NDArray[np.bool_]:
+    """The cells within ``free`` of the goal whose straight way to it keeps a unit's radius
+    clear: from there the body reaches the goal with its head (without the way test, a map
+    leaks through thin walls: a cell behind a wall next to the goal looks almost there)."""
+    centres, r = grid.centres, grid.settings.resolution
+    near = cells_within(grid, goal, free)
+    out = np.zeros(len(centres), dtype=bool)
+    if near.size == 0:
+        return out
+    t = np.linspace(0.0, 1.0, max(2, math.ceil(free / (r / 2)) + 1))
+    way = centres[near, None, :] + t[None, :, None] * (np.asarray(goal) - centres[near, None, :])
+    i = np.clip(((way[..., 0] - grid.bounds.xmin) / r).astype(int), 0, grid.nx - 1)
+    j = np.clip(((way[..., 1] - grid.bounds.ymin) / r).astype(int), 0, grid.ny - 1)
+    clear = at_centres[i * grid.ny + j].min(axis=1)
+    out[near] = clear >= DEFAULT_GEOMETRY.unit_radius - r * math.sqrt(0.5)
+    return out
+
+
+def cells_within(grid: LatticeGrid, point: tuple[float, float], radius: float) -> NDArray[np.intp]:
+    """The rows of ``grid.centres`` within ``radius`` of ``point``, ascending (looked for only
+    in the box of cells around it, not over the whole grid)."""
+    centres = grid.centres.reshape(grid.nx, grid.ny, 2)
+    i, j, distance = cells_round(centres[:, 0, 0], centres[0, :, 1], point, radius)
+    out: NDArray[np.intp] = (i * grid.ny + j)[distance <= radius]
+    return out
+
+
+def weighted_geodesic(
+    ok: NDArray[np.bool_], weights: Array, sources: Sequence[tuple[int, int]], r: float
+) -> Array:
+    """Dijkstra distances (m) from the nearest of ``sources`` over the 8-connected cells where
+    ``ok`` (``[nx, ny]``), a step between two cells costing its length times the mean of their
+    ``weights``; ``inf`` where cut off."""
+    nx, ny = ok.shape
+    index = np.array([i * ny + j for i, j in sources], dtype=np.int64)
+    dist = np.full(nx * ny, np.inf)
+    flat_ok = np.ascontiguousarray(ok).ravel()
+    flat_w = np.ascontiguousarray(weights, dtype=np.float64).ravel()
+    if AVAILABLE:
+        _dijkstra(flat_ok, flat_w, nx, ny, index, r, r * math.sqrt(2.0), dist)
+    else:
+        _dijkstra_python(flat_ok, flat_w, nx, ny, index, r, r * math.sqrt(2.0), dist)
+    return dist.reshape(nx, ny)
+
+
+_DI = (1, -1, 0, 0, 1, 1, -1, -1)
+_DJ = (0, 0, 1, -1, 1, -1, 1, -1)
+
+
+def _dijkstra_python(
+    ok: NDArray[np.bool_],
+    w: Array,
+    nx: int,
+    ny: int,
+    sources: NDArray[np.int64],
+    axial: float,
+    diagonal: float,
+    dist: Array,
+) -> None:
+    """``_dijkstra`` in Python (no numba): the same loop, the same sums."""
+    heap: list[tuple[float, int]] = []
+    for s in sources.tolist():
+        dist[s] = 0.0
+        heapq.heappush(heap, (0.0, s))
+    done = np.zeros(nx * ny, dtype=bool)
+    while heap:
+        du, u = heapq.heappop(heap)
+        if done[u] or du > dist[u]:
+            continue
+        done[u] = True
+        if not ok[u]:
+            continue
+        ui, uj = divmod(u, ny)
+        for e in range(8):
+            vi, vj = ui + _DI[e], uj + _DJ[e]
+            if not (0 <= vi < nx and 0 <= vj < ny):
+                continue
+            v = vi * ny + vj
+            if done[v] or not ok[v]:
+                continue
+            nd = du + (axial if e < 4 else diagonal) * 0.5 * (w[u] + w[v])
+            if nd < dist[v]:
+                dist[v] = nd
+                heapq.heappush(heap, (nd, v))
+
+
+@jit
+def _dijkstra(  # pragma: no cover - compiled
+    ok: NDArray[np.bool_],
+    w: Array,
+    nx: int,
+    ny: int,
+    sources: NDArray[np.int64],
+    axial: float,
+    diagonal: float,
+    dist: Array,
+) -> None:
+    """Dijkstra from ``sources`` into ``dist`` (filled with inf), the same distances as
+    ``_dijkstra_python`` by a bucket queue (Dial's): buckets a little narrower than the
+    cheapest step (a weight is at least 1), so no two cells of one bucket can improve each
+    other and a bucket's cells are final in any order; a ring of buckets as long as the
+    dearest step reaches, each a linked list of entries (stale ones skipped)."""
+    n = nx * ny
+    width = axial * (1.0 - 1e-9)
+    dearest = diagonal * np.max(w)
+    ring = int(dearest / width) + 2
+    head = np.full(ring, -1, dtype=np.int64)
+    cap = 8 * n + len(sources) + 1
+    entry_cell = np.empty(cap, dtype=np.int64)
+    entry_next = np.empty(cap, dtype=np.int64)
+    used = 0
+    live = 0
+    done = np.zeros(n, dtype=np.bool_)
+    for s in sources:
+        if dist[s] == 0.0:
+            continue
+        dist[s] = 0.0
+        entry_cell[used], entry_next[used] = s, head[0]
+        head[0] = used
+        used += 1
+        live += 1
+    current = 0
+    while live > 0:
+        b = current % ring
+        while head[b] >= 0:
+            e = head[b]
+            head[b] = entry_next[e]
+            live -= 1
+            u = entry_cell[e]
+            if done[u] or int(dist[u] / width) != current:
+                continue  # settled already, or moved to an earlier bucket since
+            done[u] = True
+            if not ok[u]:
+                continue
+            ui, uj = u // ny, u % ny
+            du = dist[u]
+            for k in range(8):
+                vi = ui + (1, -1, 0, 0, 1, 1, -1, -1)[k]
+                vj = uj + (0, 0, 1, -1, 1, -1, 1, -1)[k]
+                if vi < 0 or vi >= nx or vj < 0 or vj >= ny:
+                    continue
+                v = vi * ny + vj
+                if done[v] or not ok[v]:
+                    continue
+                nd = du + (axial if k < 4 else diagonal) * 0.5 * (w[u] + w[v])
+                if nd < dist[v]:
+                    dist[v] = nd
+                    t = int(nd / width) % ring
+                    entry_cell[used], entry_next[used] = v, head[t]
+                    head[t] = used
+                    used += 1
+                    live += 1
+        current += 1
+
+
+class CostHeuristic(Heuristic):  # type: ignore[misc]
+    """The obstacle heuristic of a leg (or of a repair's detour) for pyperplan's searches and
+    the cost search: ``max(0, map - reach)`` at the state's cell (``reach``: how far the
+    centroid stays from the goal with the head on it), plus ``turn_cost`` times the turn to the
+    nearest of ``headings`` (a repair's targets; none for a leg); 0 once the goal is visited.
+
+    With ``align`` (a leg's), what turning the body onto the way costs at least: the map's way
+    (its steepest descent) against the heading the head or the tail leads along, the turn's
+    length and, where the cell's risk holds (never-observed space near the robot), what
+    sweeping the turn's cells blind risks. Without it a search from a body facing away from
+    its goal meets every turn's risk in g only, after expanding every state it could reach
+    more cheaply.
+
+    ``values`` (and ``way``, ``risk``) cover ``window`` (the whole grid for a leg), flat in row
+    order."""
+
+    def __init__(
+        self,
+        task: Any,
+        values: Array,
+        window: tuple[slice, slice],
+        reach: float,
+        headings: Sequence[int] = (),
+        turn_cost: float = 0.0,
+        align: tuple[Array, Array, float, float, float] | None = None,
+    ) -> None:
+        self.task, self.reach = task, reach
+        self.values = np.ascontiguousarray(values, dtype=np.float64).ravel()
+        self.window = window
+        self.headings = np.array(sorted(headings), dtype=np.int64)
+        self.turn_cost = turn_cost
+        grid = task.grid
+        self.dims = np.array(
+            [
+                grid.nx,
+                grid.ny,
+                grid.settings.orientations,
+                window[0].start,
+                window[1].start,
+                window[0].stop,
+                window[1].stop,
+            ],
+            dtype=np.int64,
+        )
+        if align is None:
+            self.way, self.risk = np.zeros(0), np.zeros(0)
+            turn_length = cells_per_rad = contact = 0.0
+        else:
+            way, risk, turn_length, cells_per_rad, contact = align
+            self.way = np.ascontiguousarray(way, dtype=np.float64).ravel()
+            self.risk = np.ascontiguousarray(risk, dtype=np.float64).ravel()
+        self.hf = np.array(
+            [grid.settings.step, reach, turn_cost, turn_length, cells_per_rad, contact]
+        )
+
+    def __call__(self, node: Any) -> float:
+        state = node.state
+        if type(state) is LatticeState:  # the search's own states: no scan for the facts
+            if state.visited:
+                return 0.0
+            number = state.number
+        else:
+            if self.task.goal_fact in state:
+                return 0.0
+            found = self.task.at(state)
+            if found is None:
+                return math.inf
+            number = found
+        return float(
+            state_heuristic(
+                number, self.dims, self.hf, self.values, self.headings, self.way, self.risk
+            )
+        )
+
+
+def way_of(distances: Array) -> Array:
+    """Per cell, the direction (radians) a map's way leads: its steepest descent (cells cut off
+    read as just beyond the farthest reached)."""
+    finite = np.isfinite(distances)
+    filled = np.where(finite, distances, float(np.max(distances[finite], initial=0.0)) + 1.0)
+    gx, gy = np.gradient(filled)
+    out: Array = np.arctan2(-gy, -gx)
+    return out
+
+
+@jit
+def state_heuristic(  # pragma: no cover - compiled
+    number: int,
+    dims: NDArray[np.int64],
+    hf: Array,
+    values: Array,
+    headings: NDArray[np.int64],
+    way: Array,
+    risk: Array,
+) -> float:
+    """A (not visited) state's heuristic value. ``dims``: nx, ny, K, the window's i0, j0, i1,
+    j1; ``hf``: turn step, reach, turn cost (to ``headings``), and for the alignment term
+    (``way`` given) the turn's metres per radian, its blind cells per radian and the contact
+    cost; ``values``, ``way``, ``risk``: over the window, flat."""
+    nx, ny = dims[0], dims[1]
+    rest, j = number // ny, number % ny
+    k, i = rest // nx, rest % nx
+    wi, wj = i - dims[3], j - dims[4]
+    width = dims[6] - dims[4]
+    if wi < 0 or wj < 0 or i >= dims[5] or j >= dims[6]:
+        return math.inf
+    cell = wi * width + wj
+    d = values[cell]
+    if not d < math.inf:
+        return math.inf
+    h = max(0.0, d - hf[1])
+    if headings.shape[0] > 0:
+        dk = math.inf
+        for t in headings:
+            e = abs(_remainder((k - t) * hf[0], 2 * math.pi))
+            if e < dk:
+                dk = e
+        h += hf[2] * dk
+    if way.shape[0] > 0 and h > 0.0:
+        psi = k * hf[0]
+        # e(ψ) points to the tail: the head leads along ψ + π, the tail along ψ
+        head = abs(_remainder(psi + math.pi - way[cell], 2 * math.pi))
+        tail = abs(_remainder(psi - way[cell], 2 * math.pi))
+        turn = min(head, tail)
+        h += hf[3] * turn + hf[5] * (1.0 - math.exp(hf[4] * turn * risk[cell]))
+    return float(h)
+
+
+@jit
+def _remainder(x: float, y: float) -> float:  # pragma: no cover - compiled
+    """CPython's ``math.remainder`` for finite ``x`` and ``y != 0`` (every step exact)."""
+    absx, absy = abs(x), abs(y)
+    m = np.fmod(absx, absy)
+    c = absy - m
+    if m < c:
+        r = m
+    elif m > c:
+        r = -c
+    else:
+        r = m - 2.0 * np.fmod(0.5 * (absx - m), absy)
+    return float(math.copysign(1.0, x) * r)

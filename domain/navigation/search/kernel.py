@@ -1,0 +1,393 @@
+"""The cost search compiled: ``cost_astar_search`` on a ``LatticeTask``, step for step, in numba.
+
+The same open list order (``(g + weight * h, h, tiebreaker)``), the same successors in the same
+order (a goal visit first, then the valid motions by index), the same costs (``costs.evaluate``)
+and heuristic values (``heuristic.state_heuristic``), the same stale-entry test, closed states
+(expanded once), expansion count, budget and best node. A state's valid motions and costs are read from, or added to, the motion
+cache's rows; the best node of each state met is kept in a hash table (``lattice.store``; a
+visited goal's state under ``-(number + 1)``; an expanded state's node as ``-(node + 1)``:
+closed). The Python side (``search``) prepares the
+arrays, grows them when the kernel asks, and checks the deadline and cancellation between
+chunks.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+from pyperplan.task import Operator
+
+from domain.kernels import jit
+from domain.navigation.lattice.costs import lethal_part, risk_part, state_costs
+from domain.navigation.lattice.store import MAX_LOAD, Store, put, slot
+from domain.navigation.lattice.task import CostOperator, LatticeTask, state_name
+from domain.navigation.search.heuristic import CostHeuristic, state_heuristic
+from domain.pyperplan_adapter import SearchStopped, stop_if_due
+from sim.robot import Array
+
+CHUNK = 256  # expansions between checks of the deadline and the cancel flag
+FIRST_NODES = 8192  # room for search nodes at first (doubled when full)
+MAX_MOTIONS = 62  # motions per state a bitmask holds
+
+# Counters (``count``): nodes made, heap size, pushes (the tiebreaker), expansions, best node,
+# states expanded (recorded), the goal node.
+NODES, HEAP, TIE, EXPANSIONS, BEST, EXPANDED, GOAL = range(7)
+COUNTERS = 7
+# What a chunk ended with.
+RUNNING, SOLVED, EXHAUSTED, OVER_BUDGET, NEED_ROOM = range(5)
+
+
+@dataclass
+class Found:
+    """A finished search: ``solved`` (``plan`` reaches the goal), ``exhausted`` (the reachable
+    states ran out: no plan exists on this lattice) or ``budget`` (the expansions ran out), and
+    the best expanded node's h and path (the anytime answer)."""
+
+    status: str
+    plan: list[Operator] | None
+    best_h: float
+    best: list[Operator]
+    expansions: int
+
+
+def applies(task: Any, heuristic: Any) -> bool:
+    """Whether the compiled search can run this task with this heuristic."""
+    return (
+        isinstance(task, LatticeTask)
+        and type(heuristic) is CostHeuristic
+        and len(task.table.motions) <= MAX_MOTIONS
+    )
+
+
+class _Nodes:
+    """The arrays of one search, grown as it goes."""
+
+    GROWN = ("state", "parent", "g", "op", "h", "hf", "hh", "ht", "hn")
+
+    def __init__(self, capacity: int, n_motions: int) -> None:
+        self.state = np.empty(capacity, dtype=np.int64)
+        self.parent = np.empty(capacity, dtype=np.int64)
+        self.g = np.empty(capacity)
+        self.op = np.empty(capacity, dtype=np.int64)
+        self.h = np.empty(capacity)
+        self.hf = np.empty(capacity)  # heap: f
+        self.hh = np.empty(capacity)  # heap: h
+        self.ht = np.empty(capacity, dtype=np.int64)  # heap: tiebreaker
+        self.hn = np.empty(capacity, dtype=np.int64)  # heap: node
+        self.exp_number = np.empty(capacity // 8, dtype=np.int64)
+        self.exp_bits = np.empty(capacity // 8, dtype=np.int64)
+        self.exp_costs = np.empty((capacity // 8, max(1, n_motions)))
+        self.exp_near = np.empty(capacity // 8, dtype=np.bool_)
+        self.count = np.zeros(COUNTERS, dtype=np.int64)
+        self.best_h = np.array([math.inf])
+
+    def grow(self, more: int) -> None:
+        """Room for ``more`` nodes and one more expanded state."""
+        if int(self.count[NODES]) + more + 1 > len(self.state):
+            for name in self.GROWN:
+                old = getattr(self, name)
+                new = np.empty(2 * len(old), dtype=old.dtype)
+                new[: len(old)] = old
+                setattr(self, name, new)
+        if int(self.count[EXPANDED]) >= len(self.exp_number):
+            n = 2 * len(self.exp_number)
+            for name in ("exp_number", "exp_bits", "exp_near"):
+                old = getattr(self, name)
+                new = np.empty(n, dtype=old.dtype)
+                new[: len(old)] = old
+                setattr(self, name, new)
+            costs = np.empty((n, self.exp_costs.shape[1]))
+            costs[: len(self.exp_costs)] = self.exp_costs
+            self.exp_costs = costs
+
+    def operators(self, task: LatticeTask, node: int) -> list[Operator]:
+        """The operators from the root to ``node`` (as pyperplan's ``extract_solution``)."""
+        names = task.table.names
+        out: list[Operator] = []
+        while node > 0:
+            parent = int(self.parent[node])
+            a, m = int(self.state[parent]), int(self.op[node])
+            here = frozenset([task.fact(a)])
+            cost = float(self.g[node] - self.g[parent])
+            if m < 0:
+                name = f"(visit {state_name(a)} g{task.goal_index})"
+                out.append(CostOperator.of(name, here, frozenset([task.goal_fact]), frozenset(), cost))
+            else:
+                b = int(self.state[node])
+                name = f"(move {state_name(a)} {state_name(b)} {names[m]})"
+                out.append(CostOperator.of(name, here, frozenset([task.fact(b)]), here, cost))
+            node = parent
+        out.reverse()
+        return out
+
+
+def search(task: LatticeTask, heuristic: CostHeuristic, weight: float, budget: int) -> Found:
+    """``cost_astar_search(task, heuristic, weight, budget)`` compiled (``applies`` says when
+    it can run). Raises ``SearchStopped`` for a cancel or the deadline; the budget ends the
+    search with its best node (``Found.plan`` ``None`` and ``best`` the way there)."""
+    grid, table = task.grid, task.table
+    kt, inputs = task.kt, task.inputs
+    start = task.start_number
+    start_bits, start_costs = state_costs(start, inputs, task.kt_start)
+    window = task.window or (slice(0, grid.nx), slice(0, grid.ny))
+    (wi, wj), K = window, grid.settings.orientations
+    dims = np.array([grid.nx, grid.ny, K, wi.start, wj.start, wi.stop, wj.stop], dtype=np.int64)
+    cache = task.cache
+    if cache is None:
+        raise ValueError("the compiled search needs the task's motion cache")
+    best_of = Store(FIRST_NODES)
+    lethal, risky = cache.lethal, cache.risk
+    n_motions = len(table.motions)
+    s = _Nodes(FIRST_NODES, n_motions)
+    near_states = task.near_states()
+    status = RUNNING
+    try:
+        while True:
+            stop_if_due(task.cancel, task.deadline)
+            status = _run(
+                CHUNK, budget, weight, start, start_bits, start_costs, near_states, dims,
+                inputs.values, inputs.geo, inputs.risk, inputs.blocked, inputs.quiet,
+                kt.open_need, inputs.params, kt.checks, kt.check_needs, kt.check_fails,
+                kt.check_points, kt.grouped, kt.check_segments, kt.deltas, kt.cell_reach,
+                kt.lengths, kt.cells, kt.cell_segments, task.motion_targets,
+                heuristic.dims, heuristic.hf, heuristic.values, heuristic.headings,
+                heuristic.way, heuristic.risk,
+                lethal.index.keys, lethal.index.values, lethal.index.size, lethal.ints,
+                lethal.floats, lethal.used, risky.index.keys, risky.index.values,
+                risky.index.size, risky.floats, risky.used,
+                best_of.keys, best_of.values, best_of.size,
+                s.state, s.parent, s.g, s.op, s.h, s.hf, s.hh, s.ht, s.hn, s.count, s.best_h,
+                s.exp_number, s.exp_bits, s.exp_costs, s.exp_near,
+            )  # fmt: skip
+            if status == NEED_ROOM:
+                s.grow(n_motions + 1)
+                best_of.room(n_motions + 2)
+                lethal.room(1)
+                risky.room(1)
+                lethal, risky = cache.lethal, cache.risk  # (rows may start afresh)
+            elif status in (SOLVED, EXHAUSTED, OVER_BUDGET):
+                break
+    finally:
+        task.expansions = int(s.count[EXPANSIONS])
+        n = int(s.count[EXPANDED])
+        task.expanded(
+            s.exp_number[:n].copy(), s.exp_bits[:n].copy(), s.exp_costs[:n].copy(),
+            s.exp_near[:n].copy(),
+        )  # fmt: skip
+    best = int(s.count[BEST])
+    plan = s.operators(task, int(s.count[GOAL])) if status == SOLVED else None
+    path = s.operators(task, best) if best >= 0 and plan is None else []
+    outcome = {SOLVED: "solved", EXHAUSTED: "exhausted"}.get(status, "budget")
+    return Found(outcome, plan, float(s.best_h[0]), path, task.expansions)
+
+
+@jit
+def _less(f: Array, h: Array, tie: NDArray[np.int64], a: int, b: int) -> bool:  # pragma: no cover
+    if f[a] != f[b]:
+        return bool(f[a] < f[b])
+    if h[a] != h[b]:
+        return bool(h[a] < h[b])
+    return bool(tie[a] < tie[b])
+
+
+@jit
+def _push(  # pragma: no cover - compiled
+    hf: Array, hh: Array, ht: NDArray[np.int64], hn: NDArray[np.int64], size: int,
+    f: float, h: float, tie: int, node: int,
+) -> int:  # fmt: skip
+    """Push onto the binary heap; the new size. Keys are unique (the tiebreaker), so any heap
+    pops ``heapq``'s order."""
+    p = size
+    hf[p], hh[p], ht[p], hn[p] = f, h, tie, node
+    while p > 0:
+        parent = (p - 1) // 2
+        if not _less(hf, hh, ht, p, parent):
+            break
+        hf[p], hf[parent] = hf[parent], hf[p]
+        hh[p], hh[parent] = hh[parent], hh[p]
+        ht[p], ht[parent] = ht[parent], ht[p]
+        hn[p], hn[parent] = hn[parent], hn[p]
+        p = parent
+    return size + 1
+
+
+@jit
+def _pop(  # pragma: no cover - compiled
+    hf: Array, hh: Array, ht: NDArray[np.int64], hn: NDArray[np.int64], size: int
+) -> int:
+    """Take the least entry's node off the heap of ``size`` entries."""
+    top = hn[0]
+    last = size - 1
+    hf[0], hh[0], ht[0], hn[0] = hf[last], hh[last], ht[last], hn[last]
+    p = 0
+    while True:
+        a, b, least = 2 * p + 1, 2 * p + 2, p
+        if a < last and _less(hf, hh, ht, a, least):
+            least = a
+        if b < last and _less(hf, hh, ht, b, least):
+            least = b
+        if least == p:
+            break
+        hf[p], hf[least] = hf[least], hf[p]
+        hh[p], hh[least] = hh[least], hh[p]
+        ht[p], ht[least] = ht[least], ht[p]
+        hn[p], hn[least] = hn[least], hn[p]
+        p = least
+    return int(top)
+
+
+@jit
+def _run(  # pragma: no cover - compiled
+    chunk: int, budget: int, weight: float, start: int, start_bits: int, start_costs: Array,
+    near_states: NDArray[np.int64], dims: NDArray[np.int64], values: Array, geo: Array,
+    risk: Array, blocked: Array, quiet: Array, open_need: float, params: Array,
+    checks: Array, check_needs: Array, check_fails: Array, check_points: Array,
+    grouped: Array, check_segments: Array, deltas: Array, cell_reach: Array,
+    lengths: Array, cells: Array, cell_segments: Array, targets: Array,
+    h_dims: NDArray[np.int64], h_f: Array, h_values: Array, headings: NDArray[np.int64],
+    h_way: Array, h_risk: Array,
+    lk: Array, lv: Array, ls: Array, lethal_bits: Array, lethal_base: Array, lethal_used: Array,
+    rk: Array, rv: Array, rs: Array, risk_extra: Array, risk_used: Array,
+    bk: Array, bv: Array, bs: Array,
+    node_state: Array, node_parent: Array, node_g: Array, node_op: Array, node_h: Array,
+    hf: Array, hh: Array, ht: Array, hn: Array, count: Array, best_h: Array,
+    exp_number: Array, exp_bits: Array, exp_costs: Array, exp_near: Array,
+) -> int:  # fmt: skip
+    """Up to ``chunk`` expansions (see the module's docstring); what it ended with. The first
+    call pushes the root (``count`` all zero)."""
+    nx, ny = dims[0], dims[1]
+    plane = nx * ny
+    n_motions = check_segments.shape[1] - 1
+    cap = node_state.shape[0]
+    here_costs = np.empty(n_motions)
+    base = np.empty(n_motions)
+    extra = np.empty(n_motions)
+    if count[NODES] == 0:
+        h = state_heuristic(start, h_dims, h_f, h_values, headings, h_way, h_risk)
+        node_state[0], node_parent[0], node_g[0], node_op[0], node_h[0] = start, -1, 0.0, -2, h
+        count[BEST] = -1
+        put(bk, bv, bs, start, 0)
+        count[NODES] = 1
+        count[HEAP] = _push(hf, hh, ht, hn, 0, weight * h, h, 0, 0)
+    done = 0
+    while count[HEAP] > 0:
+        if done >= chunk:
+            return RUNNING
+        if (
+            count[NODES] + n_motions + 1 > cap
+            or count[EXPANDED] >= exp_number.shape[0]
+            or bs[0] + n_motions + 2 > MAX_LOAD * bk.shape[0]
+            or ls[0] + 1 > MAX_LOAD * lk.shape[0]
+            or lethal_used[0] + 1 > lethal_bits.shape[0]
+            or rs[0] + 1 > MAX_LOAD * rk.shape[0]
+            or risk_used[0] + 1 > risk_extra.shape[0]
+        ):
+            return NEED_ROOM
+        node = _pop(hf, hh, ht, hn, count[HEAP])
+        count[HEAP] -= 1
+        state = node_state[node]
+        here = slot(bk, state)
+        if bv[here] != node:
+            continue  # expanded already, or a cheaper path to it was found since
+        if state < 0:
+            count[GOAL] = node
+            return SOLVED
+        count[EXPANSIONS] += 1
+        done += 1
+        if count[EXPANSIONS] > budget:
+            return OVER_BUDGET
+        bv[here] = -(node + 1)  # closed
+        k, cell = state // plane, state % plane
+        if state == start:
+            bits = start_bits
+            for m in range(n_motions):
+                here_costs[m] = start_costs[m]
+        else:
+            at = slot(lk, state)
+            if lk[at] == state:
+                row = lv[at]
+                bits = lethal_bits[row]
+                for m in range(n_motions):
+                    base[m] = lethal_base[row, m]
+            else:
+                bits = lethal_part(
+                    state, nx, ny, values, geo, open_need, checks, check_needs, check_fails,
+                    check_points, grouped, check_segments, deltas, cell_reach, lengths,
+                    params, base,
+                )  # fmt: skip
+                row = lethal_used[0]
+                lethal_bits[row] = bits
+                for m in range(n_motions):
+                    lethal_base[row, m] = base[m]
+                lethal_used[0] = row + 1
+                put(lk, lv, ls, state, row)
+            at = slot(rk, state)
+            if rk[at] == state:
+                row = rv[at]
+                for m in range(n_motions):
+                    extra[m] = risk_extra[row, m]
+            else:
+                risk_part(
+                    state, nx, ny, risk, blocked, quiet, cells, cell_segments, params, extra
+                )
+                row = risk_used[0]
+                for m in range(n_motions):
+                    risk_extra[row, m] = extra[m]
+                risk_used[0] = row + 1
+                put(rk, rv, rs, state, row)
+            for m in range(n_motions):
+                here_costs[m] = base[m] + extra[m]
+        at = np.searchsorted(near_states, state)
+        is_near = at < near_states.shape[0] and near_states[at] == state
+        e = count[EXPANDED]
+        exp_number[e], exp_bits[e], exp_near[e] = state, bits, is_near
+        for m in range(n_motions):
+            exp_costs[e, m] = here_costs[m]
+        count[EXPANDED] = e + 1
+        if bits != 0 and node_h[node] < best_h[0]:
+            best_h[0], count[BEST] = node_h[node], node
+        g = node_g[node]
+        if is_near:  # the goal visit comes first (cost 0, heuristic 0)
+            visited = -(state + 1)
+            at = slot(bk, visited)
+            if bk[at] != visited or g < node_g[bv[at]]:
+                child = count[NODES]
+                count[NODES] += 1
+                node_state[child], node_parent[child], node_g[child] = visited, node, g
+                node_op[child], node_h[child] = -1, 0.0
+                count[TIE] += 1
+                count[HEAP] = _push(hf, hh, ht, hn, count[HEAP], g, 0.0, count[TIE], child)
+                put(bk, bv, bs, visited, child)
+        for m in range(n_motions):
+            if not (bits >> m) & 1:
+                continue
+            b = targets[k, m] + cell
+            if b == state:
+                continue
+            bc = b % plane
+            bi, bj = bc // ny, bc % ny
+            if not (dims[3] <= bi < dims[5] and dims[4] <= bj < dims[6]):
+                continue  # outside the repair's window
+            at = slot(bk, b)
+            if bk[at] == b and bv[at] < 0:
+                continue  # no reopening
+            h = state_heuristic(b, h_dims, h_f, h_values, headings, h_way, h_risk)
+            if h == math.inf:
+                continue  # no way to the goal from there
+            g_child = g + here_costs[m]
+            if bk[at] == b and not g_child < node_g[bv[at]]:
+                continue  # reached as cheaply already
+            child = count[NODES]
+            count[NODES] += 1
+            node_state[child], node_parent[child], node_g[child] = b, node, g_child
+            node_op[child], node_h[child] = m, h
+            count[TIE] += 1
+            count[HEAP] = _push(
+                hf, hh, ht, hn, count[HEAP], g_child + weight * h, h, count[TIE], child
+            )
+            put(bk, bv, bs, b, child)
+    return EXHAUSTED

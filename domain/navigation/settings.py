@@ -1,0 +1,185 @@
+"""Every behavioural parameter of navigation, with its unit and reason, in one typed object.
+
+``NavigationSettings`` groups them by concept: the lattice (resolution, headings, margins), what
+a motion costs, the search, the recoveries and the plan follower; ``costmap`` holds the world
+model's. Sizes of buffers and caches stay constants where they live: they change speed, never a
+plan.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+
+from domain.world.settings import CostmapSettings
+
+
+def _check_finite(obj: object, what: str) -> None:
+    for f in fields(obj):  # type: ignore[arg-type]
+        value = getattr(obj, f.name)
+        if isinstance(value, float) and not math.isfinite(value):
+            raise ValueError(f"{what}: {f.name} must be finite")
+
+
+@dataclass(frozen=True)
+class CostSettings:
+    """What a motion costs, in metres: its length, more where it passes close to lethal
+    obstacles, plus metres per contact it risks by sweeping space blind (Nav2's inflation and
+    cost penalty, with the risk measured on the body's own swept cells)."""
+
+    inflation_radius: float = 0.25
+    """metres of slack (clearance beyond the body's need and the margin) past which closeness
+    costs nothing"""
+    inflation_decay: float = 0.05
+    """metres in which the closeness cost falls by e (Nav2's 1 / cost_scaling_factor)"""
+    inflation_penalty: float = 1.0
+    """a motion whose body passes at zero slack costs (1 + this) times its length"""
+    contact_cost: float = 4.0
+    """metres a plan would go round to avoid one expected contact"""
+    narrow_weight: float = 10.0
+    """how many times a metre costs the heuristic where the body's centroid cannot keep the
+    margin (a passage only a turned or a rounded body might pass): the search tries the roomy
+    way first"""
+    cramped_weight: float = 5.0
+    """how many times a metre costs the heuristic where the body keeps the margin but has no
+    room to change its heading (the resting body's farthest point would sweep the margin in
+    one heading step): a straight narrow passage is still taken, a bent one only when
+    nothing roomier leads there"""
+    blocked_cost: float = 1.0
+    """metres a plan would go round to avoid a move that would find its way blocked (an
+    approach that sensing then stops, and a replan)"""
+
+    def __post_init__(self) -> None:
+        _check_finite(self, "cost settings")
+        if not (self.inflation_radius >= 0 and self.inflation_decay > 0):
+            raise ValueError("cost settings: inflation_radius >= 0 and inflation_decay > 0")
+        if min(self.inflation_penalty, self.contact_cost, self.blocked_cost) < 0 or min(self.narrow_weight, self.cramped_weight) < 1:
+            raise ValueError("cost settings: penalties must be >= 0")
+
+
+@dataclass(frozen=True)
+class SearchSettings:
+    """The one search: weighted A* over the lattice with one expansion budget."""
+
+    weight: float = 1.5
+    """f = g + weight * h: above 1 trades optimality for fewer expansions"""
+    expansions: int = 50_000
+    """expansions per leg before the search returns its best node (a budget, not seconds: the
+    same mission and seed plan the same on any machine)"""
+    progress: float = 0.25
+    """metres closer (by the heuristic) than the start the best node must be to be a partial
+    plan worth running"""
+    repair_expansions: int = 300
+    """expansions a local repair's detour may take before the whole way is planned again"""
+    repair_pad: float = 0.8
+    """metres a repair's window reaches beyond the detour's ends and the blocked moves"""
+    repair_window: float = 8.0
+    """metres: a detour needing a larger window is left to a full plan"""
+    repairs_in_a_row: int = 4
+    """local repairs in a row before the whole way is planned again (a repair keeps the far
+    part of a plan made on older knowledge)"""
+
+    def __post_init__(self) -> None:
+        _check_finite(self, "search settings")
+        if not self.weight >= 1:
+            raise ValueError("search settings: weight must be >= 1")
+        if self.expansions < 1 or self.progress < 0:
+            raise ValueError("search settings: expansions >= 1 and progress >= 0")
+        if self.repair_expansions < 0 or self.repairs_in_a_row < 0:
+            raise ValueError("search settings: repair counts must be >= 0")
+        if not (self.repair_pad > 0 and self.repair_window > 0):
+            raise ValueError("search settings: repair_pad and repair_window must be positive")
+
+
+@dataclass(frozen=True)
+class RecoverySettings:
+    """The behaviour tree's recoveries (back off, spin to sense, reshape, clear evidence)."""
+
+    retries: int = 6
+    """recoveries in a row, with no progress between them, before the goal is given up"""
+    settle_ticks: int = 8
+    """control ticks the plan must run without failing for the recoveries in a row to count
+    from zero again (progress)"""
+    back_off_steps: int = 2
+    """short library translations away from a contact, or out of a blocked start"""
+    clear_radius: float = 1.0
+    """metres round the robot where stale evidence is cleared (sensing refills what is real)"""
+    wait_ticks: int = 4
+    """control ticks the robot holds still after clearing, so the sensors read again"""
+
+    def __post_init__(self) -> None:
+        _check_finite(self, "recovery settings")
+        if min(self.retries, self.settle_ticks, self.back_off_steps, self.wait_ticks) < 0:
+            raise ValueError("recovery settings: counts must be >= 0")
+        if not self.clear_radius > 0:
+            raise ValueError("recovery settings: clear_radius must be positive")
+
+
+@dataclass(frozen=True)
+class FollowSettings:
+    """How the executor follows a plan and watches the body."""
+
+    off_plan: float = 0.3
+    """metres from a planned state past which a finished move is no progress (replan)"""
+    off_plan_turn: float = math.radians(35)
+    """... or radians of heading"""
+    arrive_tries: int = 4
+    """final approaches to one goal before the plan is given up"""
+    lookahead: int = 16
+    """plan steps the guard re-checks against the lethal layer when it changes"""
+    shape_tolerance: float = 0.1
+    """radians between sensed and commanded joints beyond which the body was deformed"""
+    no_progress_time: float = 120.0
+    """model seconds in which the body must move ``progress_radius`` (or turn
+    ``progress_turn``) or the mission gives up (Nav2's progress checker)"""
+    progress_radius: float = 0.1
+    """metres the tracked point must move for progress"""
+    progress_turn: float = math.radians(20)
+    """... or radians the heading must turn"""
+
+    def __post_init__(self) -> None:
+        _check_finite(self, "follow settings")
+        if min(self.off_plan, self.off_plan_turn, self.shape_tolerance, self.progress_radius, self.progress_turn) <= 0:
+            raise ValueError("follow settings: distances and tolerances must be positive")
+        if self.arrive_tries < 1 or self.lookahead < 1 or not self.no_progress_time > 0:
+            raise ValueError("follow settings: arrive_tries, lookahead >= 1, no_progress_time > 0")
+
+
+@dataclass(frozen=True)
+class NavigationSettings:
+    """The lattice, what its motions cost, how it is searched, recovered and followed."""
+
+    resolution: float = 0.05
+    """metres per centroid cell (the costmap's cells)"""
+    orientations: int = 64
+    """headings per turn (5.625° apart)"""
+    margin: float = 0.02
+    """metres the swept footprint keeps from anything lethal"""
+    start_margin: float = 0.0
+    """margin of motions out of the start (the robot may rest closer: it just stopped)"""
+    touch_radius: float = 0.15
+    """metres round a resting body point closer than ``start_margin`` to something within
+    which motions out of the start may keep as close as that point already is ..."""
+    touch_deeper: float = 0.005
+    """... less this (m): the body moves off what it touches, never in deeper"""
+    costs: CostSettings = field(default_factory=CostSettings)
+    search: SearchSettings = field(default_factory=SearchSettings)
+    recovery: RecoverySettings = field(default_factory=RecoverySettings)
+    follow: FollowSettings = field(default_factory=FollowSettings)
+    costmap: CostmapSettings = field(default_factory=CostmapSettings)
+
+    def __post_init__(self) -> None:
+        _check_finite(self, "navigation settings")
+        if not (0.01 <= self.resolution <= 0.5):
+            raise ValueError("resolution: must lie within [0.01, 0.5] m")
+        if self.orientations < 16 or self.orientations % 4:
+            raise ValueError("orientations: need at least 16, a multiple of 4")
+        if not (0 <= self.margin <= 0.2 and 0 <= self.start_margin <= self.margin):
+            raise ValueError("margin: must lie within [0, 0.2] m and start_margin <= margin")
+        if abs(self.costmap.resolution - self.resolution) > 1e-12:
+            raise ValueError("resolution: the lattice and the costmap share their cells")
+
+    @property
+    def step(self) -> float:
+        """Radians between neighbouring headings."""
+        return 2 * math.pi / self.orientations
