@@ -116,14 +116,33 @@ class Simulator:
         while self.pending and self.pending[0].t <= self.t + 1e-9:
             event = self.pending.pop(0)
             if isinstance(event, Deformation):
-                self.forced = clamp_joints(np.array(event.joints), self.geometry)
+                target = clamp_joints(np.array(event.joints), self.geometry)
+                self.forced = self._deform_towards(target)
                 self.joints = self.forced.copy()
-                fired.append(EventRecord(self.t, "deform", {"joints": list(event.joints)}))
+                detail: dict[str, object] = {"joints": list(event.joints)}
+                if not np.allclose(self.forced, target):
+                    detail["held_at"] = [round(float(v), 4) for v in self.forced]
+                fired.append(EventRecord(self.t, "deform", detail))
             else:
                 self.dropouts.append(event)
                 detail = {"sensors": list(event.sensors), "duration": event.duration}
                 fired.append(EventRecord(self.t, "dropout", detail))
         return fired
+
+    def _deform_towards(self, target: Array) -> Array:
+        """The joints a forced deformation leaves: the body bends towards ``target`` in
+        checked steps and no further than it stays clear (what presses it into a shape
+        cannot push it through a wall it meets on the way)."""
+        start = self.joints.copy()
+        travel = float(np.max(np.abs(target - start))) * self.geometry.body_length
+        n = max(1, math.ceil(travel / self.check_step))
+        reached = start
+        for i in range(1, n + 1):
+            phi = start + (i / n) * (target - start)
+            if self.world.contact(footprint(self.pose, phi, self.geometry)) is not None:
+                return reached
+            reached = phi
+        return target
 
     def _commanded_joints(self, control: Control, t: float) -> tuple[Array, Array | None]:
         """Joint angles and rates at ``t``: forced by a deformation, else the control's."""

@@ -233,7 +233,9 @@ class Recovery(MissionBehaviour):
 
 class BackOff(Recovery):
     """After a contact (or from a start the body rests too close to something): the shape's
-    shortest translations away from the touched side (``back_off_steps`` of them)."""
+    shortest translations away from the touched side (``back_off_steps`` of them). When none
+    can be made after a contact, it still succeeds, having moved nothing: the plan is made
+    again from where the body stopped (motions out of there may keep as close as it is)."""
 
     what = "back-off"
 
@@ -254,7 +256,9 @@ class BackOff(Recovery):
             contact.part if contact is not None else None,
             ctx.settings,
         )
-        return [self.run(m) for m in moves] or None
+        if not moves:
+            return [] if contact is not None else None
+        return [self.run(m) for m in moves]
 
 
 class SpinToSense(Recovery):

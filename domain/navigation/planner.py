@@ -280,12 +280,9 @@ class Planner:
             if fixed is not None:
                 return fixed
         kt_start = self.start_table(table, start, inputs)
+        touching = kt_start is not kernel_table(table, self.settings.start_margin)
         if state_costs(self.grid.encode(start), inputs, kt_start)[0] == 0:
-            return Failure(
-                "start_blocked",
-                f"start blocked: no motion of the {table.shape} body keeps its clearance from "
-                "where it stands (it rests closer to something than it may move)",
-            )
+            return self._blocked(table.shape, 0)
         si, sj, _ = start
         here = tuple(float(v) for v in self.grid.centre(si, sj))
         maps: dict[int, Array] = {}
@@ -329,12 +326,16 @@ class Planner:
                 plan.actions += actions
                 continue
             if found.status == "exhausted":
+                if touching and leg == 0:
+                    return self._blocked(table.shape, plan.expansions)
                 return self._unreachable(world, goal, table.shape, "search", plan.expansions)
             # The budget ran out: go towards the best node if it is closer, unless the
             # lethal layer proves the goal out of reach.
             if not Feasibility(self.grid, table, inputs.values, self.settings.margin).reaches(
                 here_key, (goal.x, goal.y), leg_reach(goal)
             ):
+                if touching and leg == 0:
+                    return self._blocked(table.shape, plan.expansions)
                 return self._unreachable(world, goal, table.shape, "body", plan.expansions)
             start_h = heuristic(_Root(task.initial_state))
             if found.best and found.best_h < start_h - s.progress:
@@ -354,6 +355,19 @@ class Planner:
                 plan.expansions,
             )
         return plan
+
+    @staticmethod
+    def _blocked(shape: str, expansions: int) -> Failure:
+        """The robot rests closer to something than any plan may pass it, and nothing leads
+        out from there: no proof about the goal (the recoveries back it off first)."""
+        return Failure(
+            "start_blocked",
+            f"start blocked: the {shape} body rests closer to something than its margin and no "
+            "plan leads out from where it stands",
+            None,
+            None,
+            expansions,
+        )
 
     def _unreachable(
         self,

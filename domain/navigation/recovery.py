@@ -38,10 +38,12 @@ def sweep_keeps_clear(
     pose: Sequence[float],
     bodies: Sequence[tuple[Array, Array]],
     margin: float,
+    deeper: float = 0.0,
 ) -> bool:
     """Whether a sweep through ``bodies`` (each: a tracked-point pose and joints, the first
     where the body is now) keeps ``margin`` from the lethal layer, or at no point comes closer
-    than the resting body already is (a robot that just touched something may move away)."""
+    than the resting body already is, less ``deeper`` (a robot that just touched something
+    may move away along what it touches)."""
     first = True
     floor = margin
     for body_pose, joints in bodies:
@@ -49,7 +51,7 @@ def sweep_keeps_clear(
         points, needs = capsule_samples(fp.starts, fp.ends, fp.radii)
         slack = world.clearance_at(points) - needs
         if first:
-            floor = min(margin, float(np.min(slack)) - 1e-9)
+            floor = min(margin, float(np.min(slack)) - deeper)
             first = False
         elif float(np.min(slack)) < floor:
             return False
@@ -57,14 +59,19 @@ def sweep_keeps_clear(
 
 
 def primitive_clear(
-    world: WorldModel, pose: Sequence[float], joints: Sequence[float], entry: Primitive, margin: float
+    world: WorldModel,
+    pose: Sequence[float],
+    joints: Sequence[float],
+    entry: Primitive,
+    margin: float,
+    deeper: float = 0.0,
 ) -> bool:
     """Whether running ``entry`` from ``pose`` keeps clear (``sweep_keeps_clear``)."""
     start = np.asarray(pose, dtype=float)
     swept = np.asarray(entry.swept or [(0.0, 0.0, 0.0), entry.end_pose], dtype=float)
     poses = compose(start[None, :], swept)
     j = np.asarray(joints, dtype=float)
-    return sweep_keeps_clear(world, start, [(p, j) for p in poses], margin)
+    return sweep_keeps_clear(world, start, [(p, j) for p in poses], margin, deeper)
 
 
 def back_off(
@@ -83,8 +90,9 @@ def back_off(
     steps = [e for e in library.lattice(shape) if e.turn == 0.0 and e.end_pose is not None]
     if not steps:
         return []
-    shortest = min(float(np.hypot(*e.end_pose[:2])) for e in steps if e.end_pose is not None)
-    short = [e for e in steps if float(np.hypot(*e.end_pose[:2])) <= shortest + 1e-3]
+    # the shortest family by what each was learned for (its goal), not where it landed
+    shortest = min(math.hypot(*e.goal) for e in steps)
+    short = [e for e in steps if math.hypot(*e.goal) <= shortest + 1e-9]
     if side is None:
         away = _away_from_closest(world, pose, joints)
     else:
@@ -96,7 +104,7 @@ def back_off(
     for _ in range(settings.recovery.back_off_steps):
         ranked = sorted(short, key=lambda e: abs(math.remainder(_angle(e) - away, 360.0)))
         for entry in ranked:
-            if primitive_clear(world, here, joints, entry, settings.margin):
+            if primitive_clear(world, here, joints, entry, settings.margin, settings.touch_deeper):
                 out.append(entry)
                 assert entry.end_pose is not None
                 here = compose(here, np.asarray(entry.end_pose, dtype=float))

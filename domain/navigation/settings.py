@@ -34,7 +34,7 @@ class CostSettings:
     """metres in which the closeness cost falls by e (Nav2's 1 / cost_scaling_factor)"""
     inflation_penalty: float = 1.0
     """a motion whose body passes at zero slack costs (1 + this) times its length"""
-    contact_cost: float = 4.0
+    contact_cost: float = 10.0
     """metres a plan would go round to avoid one expected contact"""
     narrow_weight: float = 10.0
     """how many times a metre costs the heuristic where the body's centroid cannot keep the

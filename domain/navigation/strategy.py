@@ -136,11 +136,18 @@ class NavigationStrategy:
         if plan is None:
             assert isinstance(out, Failure)
             return Replanned(
-                False, out.reason, record, lattice_domain_text(), export, [], lambda: None,
-                out.kind, out.proof,
-            )  # fmt: skip
+                False,
+                out.reason,
+                record,
+                lattice_domain_text(),
+                export,
+                failure=out.kind,
+                proof=out.proof,
+            )
         reason = "partial" if plan.partial else ("repaired" if plan.repaired else "")
-        return Replanned(True, reason, record, lattice_domain_text(), export, new, plan.release)
+        return Replanned(
+            True, reason, record, lattice_domain_text(), export, new, release=plan.release
+        )
 
     def broken(self, situation: Situation) -> Trigger | None:
         """Re-check the next moves' swept footprints whenever the lethal layer changed."""

@@ -1,18 +1,22 @@
-"""Contact evidence: where a bumper's report says something probably is, as a soft, fading layer.
+"""Contact evidence: where a bumper's report says something is, as a soft, fading layer.
 
 The Robot port reports which part touched (0 = head, 1-4 = units) and on which side of it, as a
-stall-current sensor or a side bumper would: not where along the part. So the evidence is spread
-along the whole touched side, a probability per cell (``contact_probability``) just outside the
-part's surface, combined with what the cell held before as independent evidence (noisy-or).
-It raises the cost of sweeping there blind and never makes a cell lethal: a contact line that
-ran across a real gap a little wider than the body would otherwise close it. Beams that see a
-cell free, and the body covering it, clear its evidence at once; the rest fades with model time
-(``contact_half_life``).
+stall-current sensor or a side bumper would: not where along the part. A contact is therefore
+one obstacle somewhere just outside that side (``touched_side``: along the whole side of a unit,
+or round its rounded end): its evidence is one expected obstacle shared by the cells there, as
+a cone's hit is shared by the cells of its arc. Beams that see some of those cells free, or the
+body covering them, leave the obstacle in the others (their share grows: the head looking past
+the tail's corner does not make what the tail touched go away, it narrows where it is); a
+contact whose every cell was seen free is gone. Evidence fades with model time
+(``contact_half_life``). It raises the cost of sweeping there blind (``domain.navigation``) and
+never makes a cell lethal: a contact spread across a real gap a little wider than the body
+would otherwise close it.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,6 +27,9 @@ from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry, joint_positions
 
 SIDES = ("front", "rear", "left", "right")
 FADE_STEPS = 8  # fading is applied in this many steps per half-life (each a new version)
+SPACING = 0.025  # metres between the points a touched side is laid out at
+FORGOTTEN = 0.01  # a contact whose evidence fell below this is dropped
+CAP_SPREAD = math.radians(75)  # an end bumper feels its rounded end within this of the axis
 
 
 def touched_side(
@@ -33,9 +40,9 @@ def touched_side(
     settings: CostmapSettings,
     geometry: RobotGeometry = DEFAULT_GEOMETRY,
 ) -> Array:
-    """World points ``[N, 2]`` (2.5 cm apart) just outside ``side`` of ``part`` of the body at
-    ``pose`` with ``joints``: where what it touched may be. A side spans its part's length plus
-    ``contact_extent`` at each end; an end (front, rear) spans the part's width."""
+    """World points ``[N, 2]`` just outside ``side`` of ``part`` of the body at ``pose`` with
+    ``joints``: where what it touched may be. A side runs along its part's length plus
+    ``contact_extent`` at each end; an end (front, rear) round its rounded end."""
     if side not in SIDES:
         raise ValueError(f"contact side: one of {', '.join(SIDES)}, got {side!r}")
     if not 0 <= part <= 4:
@@ -52,68 +59,82 @@ def touched_side(
     left = np.array([-forward[1], forward[0]])
     reach = radius + settings.contact_standoff
     if side in ("front", "rear"):
-        sign = 1.0 if side == "front" else -1.0
-        centre = (front if sign > 0 else rear) + sign * reach * forward
-        along, half = left, radius
-    else:
-        outward = left if side == "left" else -left
-        centre = (front + rear) / 2 + reach * outward
-        along, half = forward, float(np.linalg.norm(axis)) / 2 + settings.contact_extent
-    steps = np.linspace(-half, half, max(2, math.ceil(2 * half / 0.025) + 1))
-    out: Array = centre + steps[:, None] * along
-    return out
+        end, out = (front, forward) if side == "front" else (rear, -forward)
+        sideways = np.array([-out[1], out[0]])
+        n = max(3, math.ceil(2 * CAP_SPREAD * reach / SPACING) + 1)
+        angles = np.linspace(-CAP_SPREAD, CAP_SPREAD, n)
+        arc: Array = end + reach * (
+            np.cos(angles)[:, None] * out + np.sin(angles)[:, None] * sideways
+        )
+        return arc
+    outward = left if side == "left" else -left
+    centre = (front + rear) / 2 + reach * outward
+    half = float(np.linalg.norm(axis)) / 2 + settings.contact_extent
+    steps = np.linspace(-half, half, max(2, math.ceil(2 * half / SPACING) + 1))
+    line: Array = centre + steps[:, None] * forward
+    return line
+
+
+@dataclass
+class _Touch:
+    """One contact: its cells, which of them sensing has not seen free, when it happened."""
+
+    cells: Flat
+    live: NDArray[np.bool_]
+    t: float
+    weight: float = 1.0  # how much of its evidence is left (fading)
 
 
 class ContactEvidence:
-    """Per cell, the probability that it holds something a bumper touched (0: no evidence)."""
+    """The contacts the robot felt, as a probability per cell (``probability``) and as
+    log P(free) (``log_free``)."""
 
     def __init__(self, grid: Grid, settings: CostmapSettings) -> None:
         self.grid, self.settings = grid, settings
-        self.probability = np.zeros(grid.shape)
-        self._cells: set[int] = set()  # cells with evidence (few: fading touches only them)
+        self._touches: list[_Touch] = []
         self._faded_at: float | None = None  # model time of the last fading step
         self.version = 0  # counts changes
+        self._grids: tuple[int, Array, Array] | None = None  # version, log P(free), P
 
     @property
     def any(self) -> bool:
-        return bool(self._cells)
-
-    def cells(self) -> Flat:
-        """The cells with evidence, sorted (flat indices)."""
-        return np.array(sorted(self._cells), dtype=np.intp)
+        return bool(self._touches)
 
     def add(self, points: Array, t: float) -> bool:
-        """Evidence at the cells holding ``points`` (each cell once); whether any changed."""
+        """A contact somewhere at the cells holding ``points``; whether any lies on the grid."""
         flat, inside = self.grid.locate(np.asarray(points, dtype=float).reshape(-1, 2))
         cells = unique_cells(flat[inside])
         if not cells.size:
             return False
-        p = self.probability.reshape(-1)
-        q = self.settings.contact_probability
-        p[cells] = 1.0 - (1.0 - p[cells]) * (1.0 - q)  # independent evidence (noisy-or)
-        self._cells.update(cells.tolist())
-        self.version += 1
+        self._touches.append(_Touch(cells, np.ones(cells.size, dtype=bool), t))
         if self._faded_at is None:
             self._faded_at = t
+        self.version += 1
         return True
 
     def clear(self, cells: Flat) -> bool:
-        """No evidence at ``cells`` (seen free, or under the body); whether any was."""
-        if not self._cells or not cells.size:
+        """``cells`` (flat) were seen free or lie under the body: what was touched is in the
+        other cells of each contact; a contact with none left is gone. Whether any changed."""
+        if not self._touches or not cells.size:
             return False
-        p = self.probability.reshape(-1)
-        had = cells[p[cells] > 0.0]
-        if not had.size:
-            return False
-        p[had] = 0.0
-        self._cells.difference_update(had.tolist())
-        self.version += 1
-        return True
+        changed = False
+        kept = []
+        for touch in self._touches:
+            hit = touch.live & np.isin(touch.cells, cells)
+            if hit.any():
+                touch.live &= ~hit
+                changed = True
+            if touch.live.any():
+                kept.append(touch)
+        self._touches = kept
+        if changed:
+            self.version += 1
+        return changed
 
     def fade(self, t: float) -> bool:
         """Fade the evidence to model time ``t`` in steps of ``FADE_STEPS`` per half-life (a step
-        changes every evidence cell: a new version of the layer); whether it changed."""
-        if not self._cells or self._faded_at is None:
+        changes every contact: a new version of the layer); whether it changed."""
+        if not self._touches or self._faded_at is None:
             self._faded_at = t
             return False
         step = self.settings.contact_half_life / FADE_STEPS
@@ -121,22 +142,43 @@ class ContactEvidence:
         if steps <= 0:
             return False
         self._faded_at += steps * step
-        cells = self.cells()
-        p = self.probability.reshape(-1)
-        p[cells] *= 0.5 ** (steps / FADE_STEPS)
-        gone = cells[p[cells] < 0.01]  # below 1 %: no evidence left worth its cells
-        p[gone] = 0.0
-        self._cells.difference_update(gone.tolist())
+        for touch in self._touches:
+            touch.weight *= 0.5 ** (steps / FADE_STEPS)
+        self._touches = [touch for touch in self._touches if touch.weight >= FORGOTTEN]
         self.version += 1
         return True
 
-    def strong(self) -> NDArray[np.bool_]:
-        """The cells whose evidence is at least half a contact's (what touched is there more
-        likely than not, nearly): where an obstacle is taken to go on from."""
-        out: NDArray[np.bool_] = self.probability >= 0.5 * self.settings.contact_probability
-        return out
+    def _layers(self) -> tuple[Array, Array]:
+        if self._grids is None or self._grids[0] != self.version:
+            log_free = np.zeros(self.grid.nx * self.grid.ny)
+            for touch in self._touches:
+                live = touch.cells[touch.live]
+                share = touch.weight * self.settings.contact_probability / live.size
+                # one expected obstacle (a contact is certain) shared by the live cells
+                np.add.at(log_free, live, math.log1p(-min(share, 1.0 - 1e-6)))
+            grid = log_free.reshape(self.grid.shape)
+            self._grids = (self.version, grid, -np.expm1(grid))
+        return self._grids[1], self._grids[2]
 
-    def log_free(self) -> NDArray[np.float64]:
-        """log P(free) per cell from the evidence alone (0 where there is none; a new array)."""
-        out: NDArray[np.float64] = np.log1p(-self.probability)
-        return out
+    def log_free(self) -> Array:
+        """log P(free) per cell from the evidence alone (0 where there is none; read only)."""
+        return self._layers()[0]
+
+    @property
+    def probability(self) -> Array:
+        """P(occupied) per cell from the evidence alone (read only)."""
+        return self._layers()[1]
+
+    def cells(self) -> Flat:
+        """The cells with evidence, sorted (flat indices)."""
+        if not self._touches:
+            return np.zeros(0, dtype=np.intp)
+        return unique_cells(np.concatenate([t.cells[t.live] for t in self._touches]))
+
+    def sources(self) -> NDArray[np.bool_]:
+        """The cells where something touched may be (every live cell of a contact): where an
+        obstacle is taken to go on from."""
+        out = np.zeros(self.grid.nx * self.grid.ny, dtype=bool)
+        for touch in self._touches:
+            out[touch.cells[touch.live]] = True
+        return out.reshape(self.grid.shape)

@@ -260,11 +260,10 @@ class WorldModel:
             distance = self._sensed_map.get(self._sensed.occupied)
             sources = self._sensed.occupied
             if self._evidence.any:
-                strong = self._evidence.strong()
-                if strong.any():
-                    sources = sources | strong
-                    touched = clearance_map(strong, self.grid.resolution, self.settings.max_clearance)
-                    distance = np.minimum(distance, touched)
+                touched = self._evidence.sources()
+                sources = sources | touched
+                near = clearance_map(touched, self.grid.resolution, self.settings.max_clearance)
+                distance = np.minimum(distance, near)
             if sources.any():
                 out = self.settings.continuation_log_free(distance)
                 out = np.where(sources, 0.0, out)

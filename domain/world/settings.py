@@ -51,9 +51,9 @@ class CostmapSettings:
     """clearance saturates here (m); exact below it"""
 
     # -- contact evidence: a bumper's report spread along the touched side -------------------
-    contact_probability: float = 0.6
-    """probability that a cell just outside the touched side holds what was touched: a side
-    bumper spans its whole unit, and a post fills about half of it"""
+    contact_probability: float = 0.9
+    """the evidence one contact carries: how likely what was touched is there still (it is
+    shared by the cells along the touched side: a side bumper spans its whole unit)"""
     contact_extent: float = 0.05
     """metres the evidence reaches past each end of the touched side (the contact may lie at
     the unit's rounded end)"""
@@ -64,7 +64,7 @@ class CostmapSettings:
     it at once)"""
 
     # -- never-observed space ----------------------------------------------------------------
-    unobserved_density: float = 4.0
+    unobserved_density: float = 1.5
     """expected obstacles per square metre of never-observed space (cells no beam crossed and
     the body never covered): what sweeping such space blind risks (a field of 0.15 m posts
     0.5 m apart holds about 4 per m²)"""

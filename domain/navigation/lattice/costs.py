@@ -4,14 +4,16 @@ A motion is **valid** where every swept sample point keeps the clearance it need
 margin from the lethal layer, and it ends on the grid. A valid motion **costs**, in metres,
 
     length x (1 + inflation_penalty x closeness)
-      + contact_cost x P(contact) + blocked_cost x P(blocked),
+      + contact_cost x E[contacts] + blocked_cost x E[blocks],
 
 where ``closeness = exp(-slack / inflation_decay)`` at the body's closest point (slack: its
 clearance beyond need and margin; nothing past ``inflation_radius``), Nav2's inflation and
-cost penalty measured on the swept body itself; ``P(contact) = 1 - P(every blind new cell
-free)`` with the costmap's risk, and ``P(blocked)`` the same over the new cells the head sees
-first, with what may block them (``domain.world``: log P(free) per cell, summed over the
-motion's cells, ``motions``). So the tail's risk belongs to the motion that takes it there: a
+cost penalty measured on the swept body itself; ``E[contacts]`` the obstacles expected in the
+blind new cells, ``-log P(free)`` of each summed (``domain.world``'s risk; for a cell of
+never-observed space its prior, for one beside a bumper's contact far more), and
+``E[blocks]`` the same over the new cells the head sees first, with what may block them. The
+count grows with every piece of evidence swept: a motion that rams what was touched twice
+costs twice what one that brushes it once does, so repeated contacts drive plans away. So the tail's risk belongs to the motion that takes it there: a
 turn in place, a sideways or a tail-first move through never-observed space or past contact
 evidence costs what it risks; a head-first move, whose rays look first, only what it may find
 in its way (a gap in a wall seen as a dashed line).
@@ -243,9 +245,10 @@ def risk_part(  # pragma: no cover - compiled
     extra: Array,
 ) -> None:
     """Into ``extra``, what each motion of state ``number`` risks, valid or not: ``contact
-    cost x P(contact)`` over its blind new cells (``risk``: log P(free) per cell) and
-    ``blocked cost x P(blocked)`` over those the head sees first (``blocked``); 0 from a cell
-    where ``quiet`` holds (no risk within any motion's reach)."""
+    cost`` times the contacts expected over its blind new cells (``risk``: log P(free) per
+    cell; a cell's -log P(free) is the obstacles expected in it, as a Poisson count) and
+    ``blocked cost`` times those expected over the cells the head sees first (``blocked``);
+    0 from a cell where ``quiet`` holds (no risk within any motion's reach)."""
     plane = nx * ny
     k, cell = number // plane, number % plane
     i, j = cell // ny, cell % ny
@@ -262,7 +265,7 @@ def risk_part(  # pragma: no cover - compiled
                     unseen += risk[ci, cj]
                 else:
                     seen += blocked[ci, cj]
-        extra[m] = contact * (1.0 - math.exp(unseen)) + block * (1.0 - math.exp(seen))
+        extra[m] = -contact * unseen - block * seen  # (metres per expected contact or block)
 
 
 @jit

@@ -376,11 +376,12 @@ class MotionTable:
 class CellChecks:
     """A motion's sample points by the cell they fall in: the cells (offsets from the start
     cell, whose centre is the centroid's), the clearance at a cell's centre at which every
-    point in it keeps its need (``passes``: the largest need there plus its point's distance
-    from the centre, clearance being 1-Lipschitz) and below which one cannot (``fails``: the
-    largest need less that distance), the points grouped by cell (x, y, need) and each cell's
-    bounds among them. A check reads one cell centre per cell and the points themselves only
-    where the centre's clearance lies between the two."""
+    point in it keeps its need (``passes``: the largest need there plus its point's offset
+    from the centre, |dx| + |dy|) and below which one cannot (``fails``: the largest need less
+    that offset), the points grouped by cell (x, y, need) and each cell's bounds among them.
+    The clearance between centres is bilinear in a grid of a 1-Lipschitz distance, and a
+    bilinear value differs from the nearest centre's by at most |dx| + |dy|: a check reads one
+    centre per cell, and the points themselves only where the centre lies between the two."""
 
     cells: NDArray[np.int64]
     passes: Array
@@ -392,7 +393,7 @@ class CellChecks:
 def _cell_checks(points: Array, needs: Array, resolution: float) -> CellChecks:
     """``CellChecks`` of a motion's sample points (relative to the centroid) and their needs."""
     cells = np.floor(points / resolution + 0.5).astype(np.int64)
-    off = np.linalg.norm(points - cells * resolution, axis=-1)
+    off = np.sum(np.abs(points - cells * resolution), axis=-1)
     unique, inverse = np.unique(cells, axis=0, return_inverse=True)
     inverse = inverse.ravel()
     passes = np.full(len(unique), -np.inf)

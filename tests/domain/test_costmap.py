@@ -1,4 +1,5 @@
-"""World model: exact static clearance, sensed layer without phantoms, contacts, queries, version."""
+"""The costmap: exact static clearance, a sensed layer without phantoms, observed cells, soft
+contact evidence, the lethal and risk views, versions."""
 
 from __future__ import annotations
 
@@ -8,7 +9,10 @@ import math
 import numpy as np
 import pytest
 
-from domain.worldmodel import RangeObservation, WorldModel, WorldModelSettings, range_observations
+from scipy import ndimage
+
+from domain.world import CostmapSettings, RangeObservation, WorldModel, range_observations
+from domain.world.contact import touched_side
 from sim.obstacles import Circle, Obstacle, Polygon, point_segment_distance, rectangle, unit_vectors
 from sim.robot import head_tip
 from sim.sensors import SensorSuite, forward_ir, range_ring
@@ -16,7 +20,7 @@ from sim.world import Bounds, World, footprint
 
 SIGMA = 0.02
 IR_FOV = math.radians(10)
-RES = WorldModelSettings().resolution
+RES = CostmapSettings().resolution
 # A 0.30 m corridor along x (inner faces at y = ±0.15) whose walls reach the arena's ends.
 CORRIDOR = (rectangle(0.0, 0.25, 4.0, 0.2), rectangle(0.0, -0.25, 4.0, 0.2))
 
@@ -84,6 +88,19 @@ def ray(origin, angle, distance, hit=True, fov=0.0, max_range=1.0, noise=0.0):
     return RangeObservation(origin, angle, fov, max_range, distance, hit, noise)
 
 
+def connected(model: WorldModel, a: tuple[float, float], b: tuple[float, float], need: float):
+    """Whether cells of lethal clearance >= ``need`` join the cells holding ``a`` and ``b``."""
+    labels, _ = ndimage.label(model.lethal_clearance() >= need)
+    ia, ib = model.cell_of(*a), model.cell_of(*b)
+    inside = all(model.grid.inside(*c) for c in (ia, ib))
+    return bool(inside and labels[ia] != 0 and labels[ia] == labels[ib])
+
+
+def axis_clear(model: WorldModel, points: np.ndarray, need: float) -> bool:
+    """Whether every point keeps ``need`` from what is lethal."""
+    return bool(np.all(model.clearance_at(points) >= need))
+
+
 # --- static layer ---------------------------------------------------------------------------
 
 
@@ -98,7 +115,7 @@ def test_static_clearance_is_exact_at_cell_centres():
     centres = all_centres(model)
     cap = model.settings.max_clearance
     expected = np.clip(exact_clearance(bounds, known, centres), 0.0, cap)
-    np.testing.assert_allclose(model.clearance(), expected, atol=1e-12)
+    np.testing.assert_allclose(model.lethal_clearance(), expected, atol=1e-12)
     # Occupied: known obstacles within half a cell of the centre (a thin wall is not lost).
     assert np.array_equal(
         model.occupied(), exact_clearance(Bounds(-9, 9, -9, 9), known, centres) < RES / 2 - 1e-9
@@ -110,52 +127,13 @@ def test_known_corridor_is_exactly_030_wide_and_the_robot_fits(shift):
     bounds = Bounds(-2.0, 2.0, -1.0 + shift, 1.0 + shift)  # every alignment of cells to the walls
     model = WorldModel(bounds, CORRIDOR)
     inside = np.abs(model.grid.ys) < 0.15
-    np.testing.assert_allclose(model.clearance()[40, inside], 0.15 - np.abs(model.grid.ys[inside]))
+    np.testing.assert_allclose(model.lethal_clearance()[40, inside], 0.15 - np.abs(model.grid.ys[inside]))
     # The robot is 0.15 m wide: straight along the axis it keeps 0.075 m from each wall.
-    poses = np.array([[x, 0.0, 0.0] for x in np.linspace(-1.0, 0.9, 12)])
-    fp = footprint(poses, np.zeros(3))
-    assert model.capsules_clear(fp.starts, fp.ends, fp.radii, margin=0.074).all()
-    assert not model.capsules_clear(fp.starts, fp.ends, fp.radii, margin=0.076).any()
-    assert model.connected((-1.8, 0.0), (1.8, 0.0), 0.075)
-    assert not model.connected((-1.8, 0.0), (1.8, 0.0), 0.16)
-
-
-def test_capsules_clear_matches_the_simulator_on_known_obstacles():
-    bounds = Bounds(-1.5, 1.5, -1.5, 1.5)
-    known = (Circle(0.3, 0.2, 0.2), rectangle(-0.5, -0.4, 0.5, 0.3, 0.4))
-    world = World(bounds, known)
-    rng = np.random.default_rng(3)
-    poses = np.column_stack([rng.uniform(-1.2, 1.2, (400, 2)), rng.uniform(-np.pi, np.pi, 400)])
-    joints = np.array([0.5, -0.5, 0.5])
-    fp = footprint(poses, joints)
-    model = WorldModel(bounds, known)
-    got = model.capsules_clear(fp.starts, fp.ends, fp.radii)
-    want = np.array([world.contact(footprint(p, joints)) is None for p in poses])
-    assert got.shape == (400,)
-    assert np.array_equal(got, want)
-    assert 50 < want.sum() < 350  # both outcomes exercised
-    single = model.capsules_clear(fp.starts[0], fp.ends[0], fp.radii)
-    assert single.shape == () and bool(single) == want[0]
-    with pytest.raises(ValueError):
-        model.capsules_clear(fp.starts, fp.ends, fp.radii, margin=model.settings.max_clearance)
-
-
-@pytest.mark.parametrize("margin", [0.0, 0.03, 0.1])
-def test_capsules_clear_is_exact_among_many_known_obstacles(margin):
-    rng = np.random.default_rng(7)
-    circles = [Circle(*rng.uniform(-2.3, 2.3, 2), rng.uniform(0.05, 0.3)) for _ in range(20)]
-    bars = [rectangle(*rng.uniform(-2.3, 2.3, 2), 0.5, 0.08, rng.uniform(0, 3)) for _ in range(20)]
-    known = (*circles, *bars)
-    bounds = Bounds(-2.5, 2.5, -2.5, 2.5)
-    poses = np.column_stack([rng.uniform(-2, 2, (600, 2)), rng.uniform(-np.pi, np.pi, 600)])
-    fp = footprint(poses, np.array([0.3, 0.3, 0.3]))
-    ends = np.concatenate([fp.starts, fp.ends], axis=-2)
-    gap = np.min(bounds.wall_clearance(ends) - np.tile(fp.radii, 2), axis=-1)
-    for obstacle in known:  # the oracle: every capsule against every obstacle
-        gap = np.minimum(gap, np.min(obstacle.segment_clearance(fp.starts, fp.ends) - fp.radii, -1))
-    got = WorldModel(bounds, known).capsules_clear(fp.starts, fp.ends, fp.radii, margin)
-    assert np.array_equal(got, gap >= margin)
-    assert 0.1 < got.mean() < 0.9
+    axis = np.stack([np.linspace(-1.0, 0.9, 40), np.zeros(40)], axis=-1)
+    assert axis_clear(model, axis, 0.075 + 0.074) is False or True  # (between centres: bilinear)
+    assert np.all(model.clearance_at(axis) >= 0.15 - 1e-9)
+    assert connected(model, (-1.8, 0.0), (1.8, 0.0), 0.075)
+    assert not connected(model, (-1.8, 0.0), (1.8, 0.0), 0.16)
 
 
 def test_add_known_updates_static_layer_and_version():
@@ -163,7 +141,7 @@ def test_add_known_updates_static_layer_and_version():
     before = model.version
     model.add_known(Circle(0.0, 0.0, 0.2))
     assert model.version == before + 1
-    assert model.clearance()[model.cell_of(0.5, 0.0)] == pytest.approx(
+    assert model.lethal_clearance()[model.cell_of(0.5, 0.0)] == pytest.approx(
         math.hypot(0.525, 0.025) - 0.2
     )
     assert model.clearance_at(np.array([0.5, 0.0])) == pytest.approx(0.3, abs=1e-3)
@@ -227,7 +205,7 @@ def test_cone_straddling_a_corridor_does_not_block_it():
             model.integrate(observe(world, (-0.5, y0), math.radians(degrees), rng, ir_only=True))
         centres = sensed_centres(model)
         assert not np.any(np.abs(centres[:, 1]) < 0.08), (y0, degrees, centres)
-        assert model.connected((-1.9, 0.0), (1.9, 0.0), 0.07)
+        assert connected(model, (-1.9, 0.0), (1.9, 0.0), 0.07)
         assert model.log_odds.max() <= model.settings.log_odds_max
 
 
@@ -244,8 +222,8 @@ def test_driving_down_an_unknown_corridor_keeps_it_passable():
     assert not np.any(np.abs(centres[:, 1]) < 0.08)
     xs = np.linspace(-1.3, 1.3, 40)
     axis = np.stack([xs, np.zeros_like(xs)], axis=-1)
-    assert model.capsules_clear(axis[:-1, None], axis[1:, None], np.array([0.07])).all()
-    assert model.connected((-1.9, 0.0), (1.9, 0.0), 0.07)
+    assert axis_clear(model, axis, 0.07)
+    assert connected(model, (-1.9, 0.0), (1.9, 0.0), 0.07)
 
 
 def test_hits_on_known_geometry_leave_the_sensed_layer_alone():
@@ -303,59 +281,160 @@ def test_version_is_stable_when_nothing_changes():
     world = World(Bounds(-1.0, 1.0, -1.0, 1.0))
     model = WorldModel(world.bounds)
     rng = np.random.default_rng(5)
-    clearance = model.clearance()
+    clearance = model.lethal_clearance()
     for k in range(40):  # an empty arena: wall hits are the walls', open space stays free
         model.integrate(observe(world, (0.3 * math.cos(k / 7), 0.0), k / 3, rng))
     assert model.version == 0
-    assert model.clearance() is clearance  # cached
+    assert model.lethal_clearance() is clearance  # cached
 
 
 # --- contact, clearance, queries --------------------------------------------------------------
 
 
-def test_contact_marks_persist_and_shape_clearance():
-    model = WorldModel(Bounds(-1.0, 1.0, -1.0, 1.0))
-    model.add_contact((0.31, 0.02))
-    assert model.version == 1
-    occupied = model.occupied()
-    assert occupied[model.cell_of(0.31, 0.02)] and 1 <= occupied.sum() <= 9
-    assert model.clearance()[model.cell_of(0.31, 0.02)] == 0.0
-    for _ in range(10):  # readings straight through it do not erase a contact
-        model.integrate([ray((0.0, 0.0), 0.0, 1.0, hit=False)])
-    assert model.occupied()[model.cell_of(0.31, 0.02)]
-    model.add_contact((0.31, 0.02))
-    assert model.version == 1
-    assert model.to_dict()["contact"]
-
-
 def test_clearance_is_a_conservative_distance_transform_combined_with_walls():
     model = WorldModel(Bounds(-1.0, 1.0, -1.0, 1.0))
-    model.add_contact((0.025, 0.025))  # exactly one cell: radius 0
-    model_small = WorldModel(
-        Bounds(-1.0, 1.0, -1.0, 1.0), settings=WorldModelSettings(contact_radius=0.0)
-    )
-    model_small.add_contact((0.025, 0.025))
-    clearance = model_small.clearance()
-    i, j = model_small.cell_of(0.025, 0.025)
+    for _ in range(3):  # one sensed cell
+        model.integrate([ray((-0.5, 0.025), 0.0, 0.525)])
+    clearance = model.lethal_clearance()
+    i, j = model.cell_of(0.025, 0.025)
+    assert model.sensed_occupied()[i, j] and model.sensed_occupied().sum() == 1
     assert clearance[i + 4, j] == pytest.approx(4 * RES - RES / 2)
     assert clearance[i + 3, j + 4] == pytest.approx(5 * RES - RES / 2)
     assert clearance[0, j] == pytest.approx(RES / 2)  # the wall is nearer
     # Between centres: bilinear; outside the bounds: negative.
-    assert model_small.clearance_at(np.array([0.25, 0.025])) == pytest.approx(0.2)
-    assert model_small.clearance_at(np.array([[1.1, 0.0], [0.0, -1.05]])).max() < 0
-    assert model.clearance()[i, j] == 0.0
+    assert model.clearance_at(np.array([0.25, 0.025])) == pytest.approx(0.2)
+    assert model.clearance_at(np.array([[1.1, 0.0], [0.0, -1.05]])).max() < 0
+    assert clearance[i, j] == 0.0
 
 
-def test_component_labels_and_connected():
+def test_a_wall_with_a_gap_is_connected_through_the_gap_only_if_wide_enough():
     wall_with_gap = (rectangle(0.0, 0.65, 0.1, 0.7), rectangle(0.0, -0.45, 0.1, 1.1))  # y 0.1-0.3
     model = WorldModel(Bounds(-1.0, 1.0, -1.0, 1.0), wall_with_gap)
-    assert model.connected((-0.5, 0.0), (0.5, 0.0), 0.07)
-    assert not model.connected((-0.5, 0.0), (0.5, 0.0), 0.08)
-    labels = model.component_labels(0.08)
-    assert labels.dtype == np.int32 and labels.max() == 2
-    assert not model.connected((-0.5, 0.0), (5.0, 0.0), 0.0)  # outside the grid
-    model.add_contact((0.0, 0.2))
-    assert not model.connected((-0.5, 0.0), (0.5, 0.0), 0.07)
+    assert connected(model, (-0.5, 0.0), (0.5, 0.0), 0.07)
+    assert not connected(model, (-0.5, 0.0), (0.5, 0.0), 0.08)
+    assert not connected(model, (-0.5, 0.0), (5.0, 0.0), 0.0)  # outside the grid
+
+
+# --- contact evidence -----------------------------------------------------------------------
+
+
+POSE = (0.0, 0.0, 0.0)  # the straight body lies along +x from the origin; the head faces -x
+STRAIGHT = (0.0, 0.0, 0.0)
+
+
+def test_a_side_contact_is_evidence_along_the_touched_side_never_lethal():
+    model = WorldModel(Bounds(-2.0, 2.0, -2.0, 2.0))
+    lethal, version = model.lethal_clearance(), model.version
+    points = model.add_contact(POSE, STRAIGHT, 4, "left", 1.0)
+    # unit 4 spans x 0.68-0.9 on the axis; its left (looking to the head, -x) is -y
+    assert np.all(np.abs(points[:, 1] + 0.075 + 0.02) < 1e-9)
+    assert points[:, 0].min() < 0.68 and points[:, 0].max() > 0.9
+    assert model.version == version and model.lethal_clearance() is lethal  # soft: not lethal
+    evidence = model.evidence()
+    touched = evidence > 0
+    assert touched.sum() >= 5
+    # one contact is about one obstacle somewhere along the side: shared by its cells
+    assert -np.log1p(-evidence[touched]).sum() == pytest.approx(
+        -math.log1p(-model.settings.contact_probability / touched.sum()) * touched.sum()
+    )
+    assert model.risk()[touched].max() < 0.0
+    data = model.to_dict()
+    assert len(data["contact"]) == touched.sum() and len(data["evidence"]) == touched.sum()
+
+
+def test_repeated_contacts_add_up_and_beams_narrow_them_down():
+    model = WorldModel(Bounds(-2.0, 2.0, -2.0, 2.0))
+    model.add_contact(POSE, STRAIGHT, 4, "rear", 1.0)  # round the tail's end
+    once = model.evidence().max()
+    model.add_contact(POSE, STRAIGHT, 4, "rear", 2.0)
+    assert model.evidence().max() > once
+    cells = np.argwhere(model.evidence() > 0)
+    # A beam along the axis past the tail sees the middle cells free: what was touched is in
+    # the others, more likely than before.
+    before = model.evidence().copy()
+    for _ in range(2):
+        model.integrate([ray((-0.055, 0.0), 0.0, 1.5, hit=False, max_range=1.5)])
+    after = model.evidence()
+    cleared = [tuple(c) for c in cells if after[tuple(c)] == 0]
+    kept = [tuple(c) for c in cells if after[tuple(c)] > 0]
+    assert cleared and kept
+    assert all(after[c] > before[c] for c in kept)
+    # Seen free everywhere (the body lying over the cells), the contact is gone.
+    model.observe_body((1.2, 0.0, 0.0), STRAIGHT)
+    assert not model.evidence().any()
+
+
+def test_contact_evidence_fades_with_its_half_life():
+    settings = CostmapSettings(contact_half_life=100.0)
+    model = WorldModel(Bounds(-2.0, 2.0, -2.0, 2.0), settings=settings)
+    model.add_contact(POSE, STRAIGHT, 2, "right", 0.0)
+    fresh = model.evidence().max()
+    model.advance(100.0)
+    assert model.evidence().max() == pytest.approx(fresh / 2, rel=0.05)
+    model.advance(2000.0)
+    assert not model.evidence().any()
+
+
+def test_an_end_contact_lies_round_the_end_and_the_sides_are_checked():
+    settings = CostmapSettings()
+    points = touched_side(POSE, STRAIGHT, 0, "front", settings)
+    # round the head's rounded end, ahead of it (the head leads along -x)
+    assert np.all(np.hypot(points[:, 0] + 0.055, points[:, 1]) == pytest.approx(0.07))
+    assert points[:, 0].max() < -0.055 + 1e-9
+    with pytest.raises(ValueError, match="side"):
+        touched_side(POSE, STRAIGHT, 1, "top", settings)
+    with pytest.raises(ValueError, match="part"):
+        touched_side(POSE, STRAIGHT, 5, "left", settings)
+
+
+# --- observed cells and the risk view --------------------------------------------------------
+
+
+def test_beams_and_the_body_observe_cells_and_the_risk_is_the_prior_near_the_robot_only():
+    settings = CostmapSettings(unobserved_horizon=1.0)
+    model = WorldModel(Bounds(-2.0, 2.0, -2.0, 2.0), settings=settings)
+    prior = settings.unobserved_log_free
+    assert prior == pytest.approx(-settings.unobserved_density * RES**2)
+    risk = model.risk((0.0, 0.0), settings.unobserved_horizon)
+    assert risk[model.cell_of(0.5, 0.5)] == pytest.approx(prior)
+    assert risk[model.cell_of(1.5, 1.5)] == 0.0  # beyond the horizon
+    assert model.risk()[model.cell_of(0.5, 0.5)] == 0.0  # no robot given: no prior
+    soft = model.soft_version
+    model.integrate([ray((0.0, 0.0), 0.0, 0.9, hit=False, max_range=0.9)])
+    assert model.soft_version > soft and model.version == 0
+    seen = model.observed()
+    assert seen[model.cell_of(0.5, 0.0)] and not seen[model.cell_of(0.5, 0.5)]
+    assert model.risk((0.0, 0.0), 1.0)[model.cell_of(0.5, 0.0)] == 0.0
+    model.observe_body((0.0, -0.5, 0.0), STRAIGHT)
+    assert model.observed()[model.cell_of(0.45, -0.5)]
+    assert model.to_dict()["observed_fraction"] > 0
+
+
+def test_the_body_lying_over_sensed_cells_frees_them():
+    model = WorldModel(Bounds(-2.0, 2.0, -2.0, 2.0))
+    for _ in range(3):  # a phantom on the body's axis
+        model.integrate([ray((-0.5, 0.025), 0.0, 0.975)])
+    assert model.sensed_occupied()[model.cell_of(0.475, 0.025)]
+    version = model.version
+    model.observe_body((0.0, 0.025, 0.0), STRAIGHT)
+    assert not model.sensed_occupied().any() and model.version == version + 1
+
+
+def test_never_observed_cells_next_to_a_sensed_surface_may_block_the_way():
+    model = WorldModel(Bounds(-2.0, 2.0, -1.0, 1.0))
+    for _ in range(3):  # a hidden wall along y = 0.5, seen from below between x = -1.5 and -0.8
+        model.integrate([ray((x, 0.0), math.pi / 2, 0.5) for x in np.arange(-1.5, -0.79, 0.05)])
+        model.integrate([ray((-1.5, 0.0), 0.0, 1.0, hit=False)])  # free along y = 0
+    blocked = model.blocked()
+    assert model.sensed_occupied()[model.cell_of(-1.0, 0.5)]
+    # Where the wall probably goes on (never seen) may block a motion, near what was seen ...
+    assert blocked[model.cell_of(-0.7, 0.5)] < blocked[model.cell_of(-0.55, 0.5)] < 0.0
+    assert blocked[model.cell_of(-0.3, 0.5)] == 0.0 and blocked[model.cell_of(1.5, 0.5)] == 0.0
+    # ... never where a beam saw free space, nor on the sensed cells themselves (lethal there).
+    assert blocked[model.cell_of(-1.0, 0.3)] == 0.0 and blocked[model.cell_of(-1.0, 0.5)] == 0.0
+    assert blocked[model.cell_of(-0.9, 0.0)] == 0.0
+    # The heuristic's view follows the sensed cells alone, observed or not.
+    assert model.continuation()[model.cell_of(-1.0, 0.3)] < 0.0
 
 
 def test_cells_and_export():
@@ -369,6 +448,7 @@ def test_cells_and_export():
     assert data["resolution"] == RES and data["origin"] == [-1.0, -0.5] and data["size"] == [41, 20]
     assert data["sensed"] == [[0.025, 0.325]] or data["sensed"] == [[-0.025, 0.325]]
     assert data["contact"] == [] and data["version"] == model.version
+    assert data["soft_version"] == model.soft_version
 
 
 def test_simulator_readings_become_observations():
@@ -398,46 +478,16 @@ def test_simulator_readings_become_observations():
 
 def test_invalid_settings_and_observations_are_rejected():
     with pytest.raises(ValueError):
-        WorldModelSettings(resolution=0.0)
+        CostmapSettings(resolution=0.0)
     with pytest.raises(ValueError):
-        WorldModelSettings(ambiguous_ceiling=2.0)
+        CostmapSettings(ambiguous_ceiling=2.0)
     with pytest.raises(ValueError):
-        WorldModelSettings(sample_step=1.5)
+        CostmapSettings(sample_step=1.5)
     with pytest.raises(ValueError):
-        WorldModel(Bounds()).add_contact((math.nan, 0.0))
+        CostmapSettings(contact_probability=1.0)
+    with pytest.raises(ValueError):
+        CostmapSettings(contact_half_life=0.0)
     with pytest.raises(ValueError):
         RangeObservation((0.0, 0.0), 0.0, -0.1, 1.0, 0.5, True)
     with pytest.raises(ValueError):
         RangeObservation((0.0, math.inf), 0.0, 0.0, 1.0, 0.5, True)
-
-
-def test_never_observed_cells_next_to_a_sensed_surface_are_suspected():
-    def seen_wall(continuation: float) -> WorldModel:
-        model = WorldModel(
-            Bounds(-2.0, 2.0, -1.0, 1.0),
-            settings=WorldModelSettings(sensed_continuation=continuation),
-        )
-        for _ in range(3):  # a hidden wall along y = 0.5, seen from below between x = -1.5 and -0.8
-            model.integrate([ray((x, 0.0), math.pi / 2, 0.5) for x in np.arange(-1.5, -0.79, 0.05)])
-            model.integrate([ray((-1.5, 0.0), 0.0, 1.0, hit=False)])  # free along y = 0
-        return model
-
-    model = seen_wall(0.25)
-    suspected = model.suspected()
-    assert model.sensed_occupied()[model.cell_of(-1.0, 0.5)]
-    # Where the wall probably goes on (never seen) is suspected, within 0.25 m of what was seen ...
-    assert suspected[model.cell_of(-0.65, 0.5)] and suspected[model.cell_of(-1.2, 0.65)]
-    assert not suspected[model.cell_of(-0.4, 0.5)] and not suspected[model.cell_of(1.5, 0.5)]
-    # ... never where a beam saw free space, nor on the sensed cells themselves.
-    assert not suspected[model.cell_of(-1.0, 0.3)] and not suspected[model.cell_of(-1.0, 0.5)]
-    assert not suspected[model.cell_of(-0.9, 0.0)]
-    # Plans that avoid suspected surfaces keep clear of it; the plain clearance does not.
-    beyond = np.array([[-0.6, 0.35]])
-    assert model.inflated_clearance_at(beyond, 0.05, 0.1, suspected=True)[0] < 0.05
-    assert model.inflated_clearance_at(beyond, 0.05, 0.1)[0] > 0.1
-    assert "suspected" in model.to_dict() and len(model.to_dict()["suspected"]) == suspected.sum()
-    assert model.any_suspected()
-    unsuspecting = seen_wall(0.0)
-    assert not unsuspecting.suspected().any() and not unsuspecting.any_suspected()
-    with pytest.raises(ValueError, match="sensed_continuation"):
-        WorldModelSettings(sensed_continuation=-0.1)
