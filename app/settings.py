@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+from functools import cache
 from pathlib import Path
 from typing import Literal
 
@@ -49,6 +50,9 @@ class Settings(BaseModel):
     ray_address: str | None = None  # a Ray cluster (e.g. ray://head:10001); None: a local Ray
     max_queued: int = Field(1000, ge=0, le=1_000_000)  # waiting missions before POST answers 503
     max_body: int = Field(1_000_000, ge=1024, le=1_000_000_000)  # request body bytes (else 413)
+    # Obstacles one mission may list (422 naming `obstacles` beyond): the mission model reads
+    # it through `max_obstacles()` wherever a mission is validated.
+    max_obstacles: int = Field(2000, ge=1, le=100_000)
     wall_limit: float = Field(3600.0, gt=0, le=7 * 86400)  # wall-clock seconds per mission
     min_speed: float = Field(0.01, gt=0, le=10_000)  # slowest real-time pacing (0 = unpaced)
     reconcile_seconds: float = Field(30.0, gt=0, le=86400)  # how often lost missions are ended
@@ -90,3 +94,20 @@ class Settings(BaseModel):
             if key in env:
                 data[field] = env[key]
         return cls.model_validate(data)
+
+
+def max_obstacles() -> int:
+    """``SCREWSNAKE_MAX_OBSTACLES`` as ``Settings`` validates it (its default when unset).
+
+    Read from the environment each time a mission is validated rather than from a ``Settings``
+    object: the API, the service's workers (which inherit the environment), the CLI and the
+    benches then apply one cap, and none of them needs a server's settings at hand."""
+    return _max_obstacles(os.environ.get("SCREWSNAKE_MAX_OBSTACLES"))
+
+
+@cache
+def _max_obstacles(raw: str | None) -> int:
+    if raw is None:
+        default: int = Settings.model_fields["max_obstacles"].default
+        return default
+    return Settings.model_validate({"max_obstacles": raw}).max_obstacles

@@ -22,7 +22,6 @@ from sim.world import Bounds
 ARRIVE_FRACTION = 0.4  # a goal is marked reached within this fraction of its tolerance
 
 MAX_GOALS = 50
-MAX_OBSTACLES = 200
 MAX_EVENTS = 20
 MAX_CHAIN = 50
 ARENA_LIMIT = 500.0  # metres from the origin

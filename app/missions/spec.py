@@ -16,6 +16,7 @@ from pydantic import (
     BaseModel,
     Field,
     ValidationError,
+    field_validator,
     model_validator,
 )
 from pydantic import Strict as StrictNumber  # no bool or string coerced into a number
@@ -26,7 +27,6 @@ from app.missions.parts import (
     MAX_CHAIN,
     MAX_EVENTS,
     MAX_GOALS,
-    MAX_OBSTACLES,
     BoundsSpec,
     Coord,
     DropoutEvent,
@@ -43,6 +43,7 @@ from app.missions.parts import (
     _range_sensor,
     _xy,
 )
+from app.settings import max_obstacles
 from primitives.coverage import covers
 from primitives.shapes import FIXED_SHAPES, SHAPES, shape_named
 from sim.obstacles import Obstacle, obstacle_from_dict
@@ -81,8 +82,9 @@ class MissionSpec(BaseModel):
     """the goals; their indices (as posted) name them in results and live updates"""
     order: Literal["given", "any"] = "given"
     """visit the goals in the given order, or in any order (the planner picks)"""
-    obstacles: Annotated[list[ObstacleSpec], Field(max_length=MAX_OBSTACLES)] = []
-    """obstacles, known to the planner or hidden"""
+    obstacles: list[ObstacleSpec] = []
+    """obstacles, known to the planner or hidden (at most SCREWSNAKE_MAX_OBSTACLES of them, 2000
+    by default)"""
     bounds: BoundsSpec = BoundsSpec()
     """the arena's walls"""
     events: Annotated[list[EventSpec], Field(max_length=MAX_EVENTS)] = []
@@ -106,6 +108,16 @@ class MissionSpec(BaseModel):
     expect: Annotated[
         ExpectSpec | None, Field(description="the expected outcome (benchmarks); not used to run")
     ] = None
+
+    @field_validator("obstacles")
+    @classmethod
+    def _obstacle_cap(cls, obstacles: list[ObstacleSpec]) -> list[ObstacleSpec]:
+        cap = max_obstacles()
+        if len(obstacles) > cap:
+            raise ValueError(
+                f"at most {cap} obstacles (SCREWSNAKE_MAX_OBSTACLES), got {len(obstacles)}"
+            )
+        return obstacles
 
     @model_validator(mode="after")
     def _consistent(self) -> MissionSpec:

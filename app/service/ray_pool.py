@@ -24,7 +24,7 @@ from app.executor.warm import warm_up
 from app.service.messages import Addressed, Job, Update, WorkerMessage
 from app.service.pool import WorkerLost
 from app.service.worker import WarmUp, run_mission
-from app.settings import Settings, cores
+from app.settings import Settings, cores, max_obstacles
 from primitives.library import Library
 
 log = logging.getLogger("screwsnake.ray")
@@ -120,9 +120,11 @@ def init(settings: Settings) -> None:
         # The code goes with the job; third-party packages must be installed on the nodes.
         root = Path(__file__).resolve().parents[2]
         modules = [str(root / name) for name in PACKAGES]
+        # A cluster's actors do not inherit this environment; they validate missions again.
+        env = {"SCREWSNAKE_MAX_OBSTACLES": str(max_obstacles())}
         ray.init(
             address=settings.ray_address,
-            runtime_env={"py_modules": modules},
+            runtime_env={"py_modules": modules, "env_vars": env},
             log_to_driver=False,
         )
     else:
