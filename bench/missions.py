@@ -18,12 +18,14 @@ import statistics
 import sys
 import time
 import traceback
+from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
+from app.executor.context import MissionResult
 from app.executor.runner import MissionRunner
 from app.executor.warm import warm_up
 from app.missions.spec import MissionSpec, load_mission
@@ -36,6 +38,8 @@ SETS = {
     "untuned": ROOT / "examples" / "untuned",
 }
 GRACE = 30.0  # wall seconds past the cap before the parent stops waiting for a stuck worker
+J = TypeVar("J")
+R = TypeVar("R")
 
 
 @dataclass(frozen=True)
@@ -123,61 +127,84 @@ def _warm_worker() -> None:
     warm_up(_library())
 
 
+def with_noise(spec: MissionSpec, noise: float | None) -> MissionSpec:
+    """The mission with every range sensor's noise set to ``noise`` (``None``: as it is)."""
+    if noise is None:
+        return spec
+    data = spec.model_dump(by_alias=True)
+    data["sensors"]["noise"] = noise
+    return MissionSpec.model_validate(data)
+
+
+@dataclass
+class Run:
+    """One mission run: its row, and the runner and result of its last repetition (for
+    benches that read more of it than the row holds)."""
+
+    row: Row
+    runner: MissionRunner
+    result: MissionResult
+
+
+def run_spec(set_name: str, spec: MissionSpec, repeat: int, cap: float) -> Run:
+    """Run ``spec`` ``repeat`` times (best wall time) in this process, each under ``cap`` wall
+    seconds, and check it against its expectation."""
+    status, reason = expected_of(spec)
+    row = Row(set_name, spec.name, status + (f":{reason}" if reason else ""), "error")
+    library = _library()
+    best, best_cpu = float("inf"), float("inf")
+    last: tuple[MissionRunner, MissionResult] | None = None
+    for _ in range(repeat):
+        flag = Deadline(cap)
+        t0, c0 = time.perf_counter(), time.process_time()
+        runner = MissionRunner(spec, library, cancel=flag)
+        last = runner, runner.run()
+        best = min(best, time.perf_counter() - t0)
+        best_cpu = min(best_cpu, time.process_time() - c0)
+        if flag.fired:
+            break
+    assert last is not None  # repeat >= 1
+    runner, result = last
+    row.wall_time, row.cpu_time = best, best_cpu
+    row.model_time = result.model_time
+    row.status = "timeout" if flag.fired else result.status
+    row.reason = f"over the {cap:g} s wall cap" if flag.fired else result.reason
+    row.goals = len(result.goals)
+    row.reached = sum(g.reached for g in result.goals)
+    errors = [g.error for g in result.goals if g.error is not None]
+    row.max_error_cm = max(errors) * 100 if errors else float("nan")
+    row.contacts = result.collisions
+    row.replans = len(result.replans)
+    # Simulator truth (the executor never sees it): what each contact touched.
+    touched = [i for _, i in getattr(runner.robot, "truth_contacts", [])]
+    known = {i for i, o in enumerate(spec.obstacles) if o.known} | {-1}  # -1: the arena wall
+    row.known_contacts = sum(1 for i in touched if i in known)
+    hidden = [i for i in touched if i not in known]
+    row.repeated_contacts = len(hidden) - len(set(hidden))
+    met = row.status == status and (reason is None or reason in row.reason)
+    if status == "succeeded":
+        accurate = all(
+            g.reached and g.error is not None and g.error <= g.tolerance for g in result.goals
+        )
+        # DESIGN §8: nothing known touched, a hidden obstacle at most once (found by touch)
+        met = met and accurate and row.known_contacts == 0 and row.repeated_contacts == 0
+    row.ok = met
+    return Run(row, runner, result)
+
+
 def run_job(job: Job) -> Row:
-    """Run one mission ``job.repeat`` times (best wall time) in this process; never raises."""
+    """Run one mission file ``job.repeat`` times (best wall time) in this process; never raises."""
     path = Path(job.path)
     row = Row(job.set, path.stem, "?", "error")
     try:
-        spec = load_mission(path)
-        if job.noise is not None:
-            data = spec.model_dump(by_alias=True)
-            data["sensors"]["noise"] = job.noise
-            spec = MissionSpec.model_validate(data)
+        spec = with_noise(load_mission(path), job.noise)
         status, reason = expected_of(spec)
-        row.name = spec.name
-        row.expected = status + (f":{reason}" if reason else "")
-        library = _library()
-        best, best_cpu = float("inf"), float("inf")
-        result = None
-        for _ in range(job.repeat):
-            flag = Deadline(job.cap)
-            t0, c0 = time.perf_counter(), time.process_time()
-            runner = MissionRunner(spec, library, cancel=flag)
-            result = runner.run()
-            best = min(best, time.perf_counter() - t0)
-            best_cpu = min(best_cpu, time.process_time() - c0)
-            if flag.fired:
-                break
-        assert result is not None  # repeat >= 1
-        row.wall_time, row.cpu_time = best, best_cpu
-        row.model_time = result.model_time
-        row.status = "timeout" if flag.fired else result.status
-        row.reason = f"over the {job.cap:g} s wall cap" if flag.fired else result.reason
-        row.goals = len(result.goals)
-        row.reached = sum(g.reached for g in result.goals)
-        errors = [g.error for g in result.goals if g.error is not None]
-        row.max_error_cm = max(errors) * 100 if errors else float("nan")
-        row.contacts = result.collisions
-        row.replans = len(result.replans)
-        # Simulator truth (the executor never sees it): what each contact touched.
-        touched = [i for _, i in getattr(runner.robot, "truth_contacts", [])]
-        known = {i for i, o in enumerate(spec.obstacles) if o.known} | {-1}  # -1: the arena wall
-        row.known_contacts = sum(1 for i in touched if i in known)
-        hidden = [i for i in touched if i not in known]
-        row.repeated_contacts = len(hidden) - len(set(hidden))
-        met = row.status == status and (reason is None or reason in row.reason)
-        if status == "succeeded":
-            accurate = all(
-                g.reached and g.error is not None and g.error <= g.tolerance for g in result.goals
-            )
-            # DESIGN §8: nothing known touched, a hidden obstacle at most once (found by touch)
-            met = met and accurate and row.known_contacts == 0 and row.repeated_contacts == 0
-        row.ok = met
+        row.name, row.expected = spec.name, status + (f":{reason}" if reason else "")
+        return run_spec(job.set, spec, job.repeat, job.cap).row
     except BaseException as exc:  # the bench reports a crash, it does not die of it
         row.status = f"error: {type(exc).__name__}: {exc}".splitlines()[0][:200]
         traceback.print_exc(limit=-3, file=sys.stderr)  # where it broke, for whoever fixes it
-        row.ok = False
-    return row
+        return row
 
 
 def missions(only: str | None) -> list[Job]:
@@ -213,37 +240,45 @@ def line(row: Row) -> str:
     )
 
 
-def run_all(jobs: list[Job], workers: int, cap: float) -> list[Row]:
-    """Run the jobs in a pool of ``workers`` processes, printing each row in order as it ends.
+def run_pool(
+    jobs: Sequence[J],
+    work: Callable[[J], R],
+    workers: int,
+    wait: Callable[[J], float],
+    failed: Callable[[J, str, str], R],
+    show: Callable[[R], None],
+) -> list[R]:
+    """Run ``work`` on every job in a pool of ``workers`` warm processes, calling ``show`` on
+    each result in order as it ends; a job gets ``wait(job)`` wall seconds.
 
-    A worker that dies takes the pool with it: the rows it held become errors and a fresh pool
-    runs the rest. A worker stuck past the cap (inside one tick) is reported ``timeout`` and
-    its process ended when the bench finishes.
+    A worker that dies takes the pool with it: the jobs it held become ``failed(job, status,
+    reason)`` rows and a fresh pool runs the rest. A worker stuck past its wait (inside one
+    tick) is reported ``timeout`` and its process ended when the bench finishes.
     """
-    rows: dict[int, Row] = {}
+    rows: dict[int, R] = {}
     todo = list(range(len(jobs)))
     stuck: list[ProcessPoolExecutor] = []
     leftovers: list[Any] = []  # worker processes of pools with a stuck worker
     while todo:
         pool = ProcessPoolExecutor(max_workers=workers, initializer=_warm_worker)
-        futures: dict[int, Future[Row]] = {i: pool.submit(run_job, jobs[i]) for i in todo}
+        futures: dict[int, Future[R]] = {i: pool.submit(work, jobs[i]) for i in todo}
         broken = False
         for i in list(todo):
             job = jobs[i]
             try:
-                rows[i] = futures[i].result(timeout=cap * job.repeat + GRACE)
+                rows[i] = futures[i].result(timeout=wait(job))
             except TimeoutError:
-                rows[i] = Row(job.set, Path(job.path).stem, "?", "timeout", wall_time=cap)
-                rows[i].reason = f"no answer within the cap + {GRACE:g} s (stuck in one tick)"
+                why = f"no answer within the cap + {GRACE:g} s (stuck in one tick)"
+                rows[i] = failed(job, "timeout", why)
                 stuck.append(pool)
                 leftovers.extend((getattr(pool, "_processes", None) or {}).values())
             except BrokenProcessPool as exc:
-                rows[i] = Row(job.set, Path(job.path).stem, "?", f"error: worker died ({exc})")
+                rows[i] = failed(job, f"error: worker died ({exc})", "")
                 broken = True
             except BaseException as exc:
-                rows[i] = Row(job.set, Path(job.path).stem, "?", f"error: {exc}")
+                rows[i] = failed(job, f"error: {exc}", "")
             todo.remove(i)
-            print(line(rows[i]), flush=True)
+            show(rows[i])
             if broken:
                 break
         pool.shutdown(wait=not broken and pool not in stuck, cancel_futures=True)
@@ -251,6 +286,25 @@ def run_all(jobs: list[Job], workers: int, cap: float) -> list[Row]:
         if process.is_alive():
             process.terminate()
     return [rows[i] for i in range(len(jobs))]
+
+
+def run_all(jobs: list[Job], workers: int, cap: float) -> list[Row]:
+    """The mission files' jobs in a pool (``run_pool``), printing each row as it ends."""
+
+    def failed(job: Job, status: str, reason: str) -> Row:
+        row = Row(job.set, Path(job.path).stem, "?", status, reason=reason)
+        if status == "timeout":
+            row.wall_time = cap
+        return row
+
+    return run_pool(
+        jobs,
+        run_job,
+        workers,
+        lambda job: cap * job.repeat + GRACE,
+        failed,
+        lambda row: print(line(row), flush=True),
+    )
 
 
 def summary(rows: list[Row]) -> list[str]:
