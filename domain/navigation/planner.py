@@ -38,6 +38,7 @@ from domain.navigation.lattice.task import LatticeTask
 from domain.navigation.plan import Failure, Plan, PlanAction, PlanRequest, Proof
 from domain.navigation.repair import Repairer, leg_reach
 from domain.navigation.search.heuristic import CostHeuristic, cost_map, step_weights, way_of
+from domain.navigation.search.reach import lattice_reaches
 from domain.navigation.settings import NavigationSettings
 from domain.pyperplan_adapter import HEURISTICS, CancelFlag, SearchStopped, stop_if_due
 from domain.world import WorldModel
@@ -88,11 +89,8 @@ class Planner:
         return table.pose_of_centroid(self.grid.centre(i, j), k)
 
     # -- what one replan reads --------------------------------------------------------------
-    def inputs(
-        self, world: WorldModel, table: MotionTable, near: tuple[float, float] | None = None
-    ) -> CostInputs:
-        """The costmap's views as ``table``'s cost evaluation reads them (the risk of
-        never-observed space within the costmap's horizon of ``near``, the robot's centroid)."""
+    def inputs(self, world: WorldModel, table: MotionTable) -> CostInputs:
+        """The costmap's views as ``table``'s cost evaluation reads them."""
         grid, b = self.grid, self.grid.bounds
         lethal = world.lethal_clearance()
         if lethal.shape != (grid.nx, grid.ny):
@@ -100,7 +98,7 @@ class Planner:
         gf = np.array([b.xmin, b.ymin, self.settings.resolution])
         geo = np.array([b.xmin, b.ymin, self.settings.resolution, b.xmin, b.xmax, b.ymin, b.ymax])
         params = cost_parameters(self.settings.costs)
-        risk = world.risk(near, world.settings.unobserved_horizon)
+        risk = world.risk()
         blocked = world.blocked()
         quiet = quiet_cells(risk, blocked, table.cell_reach_new + 1)
         return CostInputs(grid.nx, grid.ny, gf, lethal, geo, risk, blocked, quiet, params)
@@ -271,8 +269,7 @@ class Planner:
 
     def _plan(self, request: PlanRequest, started: float, deadline: float) -> Plan | Failure:
         table, world = request.table, request.world
-        centroid = table.centroid(np.asarray(request.pose, dtype=float))
-        inputs = self.inputs(world, table, (float(centroid[0]), float(centroid[1])))
+        inputs = self.inputs(world, table)
         cache = self.cache(table, world, inputs)
         start = self.key_of(table, request.pose)
         if request.previous is not None and self.search == searches.COST_SEARCH:
@@ -323,6 +320,7 @@ class Planner:
             if found.status == "solved":
                 assert found.plan is not None
                 actions, here_key = self.actions_of(task, [op.name for op in found.plan], found.plan)
+                self.keep_for_export(task, actions, here_key)
                 plan.actions += actions
                 continue
             if found.status == "exhausted":
@@ -337,9 +335,14 @@ class Planner:
                 if touching and leg == 0:
                     return self._blocked(table.shape, plan.expansions)
                 return self._unreachable(world, goal, table.shape, "body", plan.expansions)
+            if lattice_reaches(task, heuristic, s.reach_states) is False:
+                if touching and leg == 0:
+                    return self._blocked(table.shape, plan.expansions)
+                return self._unreachable(world, goal, table.shape, "search", plan.expansions)
             start_h = heuristic(_Root(task.initial_state))
             if found.best and found.best_h < start_h - s.progress:
-                actions, _ = self.actions_of(task, [op.name for op in found.best], found.best)
+                actions, end = self.actions_of(task, [op.name for op in found.best], found.best)
+                self.keep_for_export(task, actions, end)
                 plan.actions += actions
                 plan.partial = True
                 return plan
@@ -391,6 +394,12 @@ class Planner:
                 f"collision-free motion of the {shape} body brings its head there"
             )
         return Failure("unreachable", reason, proof, goal.index, expansions)
+
+    def keep_for_export(self, task: LatticeTask, actions: list[PlanAction], end: Key) -> None:
+        """Bound what the leg keeps of its search to what its PDDL problem lists."""
+        states = {self.grid.encode(a.source) for a in actions if a.source is not None}
+        states.add(self.grid.encode(end))
+        task.keep_for_export(states, self.settings.search.exported_states)
 
     def actions_of(
         self, task: LatticeTask, names: list[str], operators: Sequence[Any] = ()

@@ -78,6 +78,13 @@ class SearchSettings:
     repairs_in_a_row: int = 4
     """local repairs in a row before the whole way is planned again (a repair keeps the far
     part of a plan made on older knowledge)"""
+    reach_states: int = 1_000_000
+    """states the lattice's own connectivity check (``search.reach``) may walk when the budget
+    ran out, before "no plan within the budget" is all that can be said"""
+    exported_states: int = 1000
+    """states of each leg's search its PDDL problem lists: the first expanded (A*'s order:
+    round the start and along the way) and every state of the plan; bounds what each plan
+    version keeps and writes however long the search ran"""
 
     def __post_init__(self) -> None:
         _check_finite(self, "search settings")
@@ -85,6 +92,8 @@ class SearchSettings:
             raise ValueError("search settings: weight must be >= 1")
         if self.expansions < 1 or self.progress < 0:
             raise ValueError("search settings: expansions >= 1 and progress >= 0")
+        if self.exported_states < 1 or self.reach_states < 1:
+            raise ValueError("search settings: exported_states and reach_states must be >= 1")
         if self.repair_expansions < 0 or self.repairs_in_a_row < 0:
             raise ValueError("search settings: repair counts must be >= 0")
         if not (self.repair_pad > 0 and self.repair_window > 0):

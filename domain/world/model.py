@@ -220,24 +220,18 @@ class WorldModel:
         """Clearance to the walls and known obstacles alone (what the operator's map says)."""
         return bilinear(self._static, self.grid, np.asarray(points, dtype=float), self.bounds)
 
-    def risk(self, near: tuple[float, float] | None = None, horizon: float = 0.0) -> Array:
+    def risk(self) -> Array:
         """Per cell, log P(free) of what the body may touch there unseen (<= 0): the contact
-        evidence; for never-observed cells the continuation of sensed obstacles and, within
-        ``horizon`` metres of ``near`` (the robot), the prior of ``unobserved_density``
-        (beyond, the head will have looked by the time the body gets there: the prior is a
-        risk of what the robot is about to do, not of the far plan it will replan many
-        times). A read-only array kept until ``soft_version`` or the horizon's cell changes."""
-        centre = None if near is None else self.grid.cell_of(*near)
-        key = (self.version, self.soft_version, centre, horizon)
+        evidence; for never-observed cells the continuation of sensed obstacles and the prior
+        of ``unobserved_density``, however far from the robot (a tail-first or sideways way
+        stays blind however long it runs: the head never looks where the tail goes). A
+        read-only array kept until either version changes."""
+        key = (self.version, self.soft_version)
         if self._risk is None or self._risk[0] != key:
             unobserved = ~self._observed.observed
-            out = self._blocked_grid().copy()
-            if centre is not None:
-                r = self.grid.resolution
-                di = (np.arange(self.grid.nx) - centre[0]) * r
-                dj = (np.arange(self.grid.ny) - centre[1]) * r
-                near_cells = unobserved & (np.hypot(di[:, None], dj[None, :]) <= horizon)
-                out += np.where(near_cells, self.settings.unobserved_log_free, 0.0)
+            out = self._blocked_grid() + np.where(
+                unobserved, self.settings.unobserved_log_free, 0.0
+            )
             out.flags.writeable = False
             self._risk = (key, out)
         return self._risk[1]

@@ -76,10 +76,6 @@ class CostmapSettings:
     """... falling by e every this many metres from the sensed cell ..."""
     continuation_reach: float = 0.3
     """... and none beyond this (m)"""
-    unobserved_horizon: float = 1.5
-    """metres from the robot within which never-observed space counts as a risk: further
-    away, the head will have looked by the time the body gets there (the rays reach 1 m past
-    the head), and the plan will have been made again"""
 
     def __post_init__(self) -> None:
         for f in fields(self):
@@ -105,8 +101,7 @@ class CostmapSettings:
         if not (self.continuation_decay > 0 and self.continuation_reach >= 0):
             raise ValueError("costmap settings: continuation_decay > 0, continuation_reach >= 0")
         margins = (self.clear_sigmas, self.clear_margin, self.explained_sigmas)
-        lengths = (self.contact_extent, self.contact_standoff, self.unobserved_density,
-                   self.unobserved_horizon)
+        lengths = (self.contact_extent, self.contact_standoff, self.unobserved_density)
         if min(*margins, *lengths, self.unambiguous_arc) < 0:
             raise ValueError(
                 "costmap settings: margins, contact lengths, unambiguous_arc and "

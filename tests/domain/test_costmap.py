@@ -130,8 +130,9 @@ def test_known_corridor_is_exactly_030_wide_and_the_robot_fits(shift):
     np.testing.assert_allclose(model.lethal_clearance()[40, inside], 0.15 - np.abs(model.grid.ys[inside]))
     # The robot is 0.15 m wide: straight along the axis it keeps 0.075 m from each wall.
     axis = np.stack([np.linspace(-1.0, 0.9, 40), np.zeros(40)], axis=-1)
-    assert axis_clear(model, axis, 0.075 + 0.074) is False or True  # (between centres: bilinear)
-    assert np.all(model.clearance_at(axis) >= 0.15 - 1e-9)
+    # Between centres the bilinear reading of the distance cone errs low, by at most half a cell.
+    assert np.all(model.clearance_at(axis) >= 0.15 - RES / 2 - 1e-9)
+    assert axis_clear(model, axis, 0.075)
     assert connected(model, (-1.8, 0.0), (1.8, 0.0), 0.075)
     assert not connected(model, (-1.8, 0.0), (1.8, 0.0), 0.16)
 
@@ -359,8 +360,13 @@ def test_repeated_contacts_add_up_and_beams_narrow_them_down():
     kept = [tuple(c) for c in cells if after[tuple(c)] > 0]
     assert cleared and kept
     assert all(after[c] > before[c] for c in kept)
-    # Seen free everywhere (the body lying over the cells), the contact is gone.
-    model.observe_body((1.2, 0.0, 0.0), STRAIGHT)
+    # Seen free everywhere (the body lying over the middle, beams fanning past the sides), the
+    # contact is gone.
+    model.observe_body((0.6, 0.0, 0.0), STRAIGHT)
+    for _ in range(2):
+        model.integrate(
+            [ray((0.3, 0.0), a, 1.5, hit=False, max_range=1.5) for a in np.linspace(-0.6, 0.6, 25)]
+        )
     assert not model.evidence().any()
 
 
@@ -390,21 +396,20 @@ def test_an_end_contact_lies_round_the_end_and_the_sides_are_checked():
 # --- observed cells and the risk view --------------------------------------------------------
 
 
-def test_beams_and_the_body_observe_cells_and_the_risk_is_the_prior_near_the_robot_only():
-    settings = CostmapSettings(unobserved_horizon=1.0)
+def test_beams_and_the_body_observe_cells_and_the_risk_is_the_prior_where_unobserved():
+    settings = CostmapSettings()
     model = WorldModel(Bounds(-2.0, 2.0, -2.0, 2.0), settings=settings)
     prior = settings.unobserved_log_free
     assert prior == pytest.approx(-settings.unobserved_density * RES**2)
-    risk = model.risk((0.0, 0.0), settings.unobserved_horizon)
+    risk = model.risk()
     assert risk[model.cell_of(0.5, 0.5)] == pytest.approx(prior)
-    assert risk[model.cell_of(1.5, 1.5)] == 0.0  # beyond the horizon
-    assert model.risk()[model.cell_of(0.5, 0.5)] == 0.0  # no robot given: no prior
+    assert risk[model.cell_of(1.9, 1.9)] == pytest.approx(prior)  # far away too
     soft = model.soft_version
     model.integrate([ray((0.0, 0.0), 0.0, 0.9, hit=False, max_range=0.9)])
     assert model.soft_version > soft and model.version == 0
     seen = model.observed()
     assert seen[model.cell_of(0.5, 0.0)] and not seen[model.cell_of(0.5, 0.5)]
-    assert model.risk((0.0, 0.0), 1.0)[model.cell_of(0.5, 0.0)] == 0.0
+    assert model.risk()[model.cell_of(0.5, 0.0)] == 0.0
     model.observe_body((0.0, -0.5, 0.0), STRAIGHT)
     assert model.observed()[model.cell_of(0.45, -0.5)]
     assert model.to_dict()["observed_fraction"] > 0

@@ -12,7 +12,7 @@ lattice a search saw can be exported as PDDL with ``:action-costs``.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 from typing import Any
 
 import numpy as np
@@ -155,6 +155,28 @@ class LatticeTask(Task):  # type: ignore[misc]
         """Record the states a compiled search expanded, in order, with their valid motions
         (bit ``m``: motion ``m``), their costs and whether each is near the goal."""
         self._pending.append((numbers, bits, costs, near))
+
+    def keep_for_export(self, plan_states: Collection[int], limit: int) -> None:
+        """Keep of what the search saw only what the PDDL export lists: the first ``limit``
+        states expanded (in the search's order) and ``plan_states`` (the plan's own, so the
+        plan solves the problem), with their successors."""
+        if sum(len(chunk[0]) for chunk in self._pending) > limit:
+            wanted = np.fromiter(plan_states, dtype=np.int64)
+            kept, first = [], limit
+            for numbers, bits, costs, near in self._pending:
+                keep = np.arange(numbers.size) < first
+                keep |= np.isin(numbers, wanted)
+                first = max(0, first - numbers.size)
+                kept.append((numbers[keep], bits[keep], costs[keep], near[keep]))
+            self._pending = kept
+        if len(self._edges) > limit:
+            kept = {
+                number: out
+                for n, (number, out) in enumerate(self._edges.items())
+                if n < limit or number in plan_states
+            }
+            self._edges = kept
+            self._near &= set(kept)
 
     def _fill(self) -> None:
         pending, self._pending = self._pending, []
