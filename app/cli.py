@@ -120,6 +120,11 @@ def serve(
     """Serve the API, the websocket and the viewer (SQLite file and bundled library by default)."""
     import uvicorn
 
+    from app.settings import Settings, missing_extra
+
+    needed = missing_extra(Settings.from_env())
+    if needed is not None:
+        raise fail(needed)
     console.print(f"screwsnake serving on http://{host}:{port}/  (API docs at /docs)")
     uvicorn.run("app.main:app", host=host, port=port, log_level="info")
 

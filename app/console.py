@@ -8,6 +8,7 @@ from typing import Annotated, Any
 import typer
 from pydantic import ValidationError
 from rich.console import Console
+from rich.markup import escape
 
 console = Console()
 # The --json option every command takes: one JSON document on stdout, for scripts.
@@ -21,7 +22,8 @@ def emit(data: Any) -> None:
 
 def fail(message: str) -> typer.Exit:
     """Print ``message`` as an error and return the exit to raise (code 2: bad input)."""
-    console.print(f"[red]error:[/red] {message}")
+    # the message is text (it may hold brackets, e.g. "screwsnake[ray]"), one line however wide
+    console.print(f"[red]error:[/red] {escape(message)}", soft_wrap=True)
     return typer.Exit(code=2)
 
 
