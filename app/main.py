@@ -105,6 +105,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         lifespan=lifespan,
         openapi_tags=docs.TAGS,
         static_url="/docs-assets",
+        redoc_url=None,  # app.api.docs serves ReDoc, its bundle's CDN badge inlined
     )
     app.state.db_health = db_health
     errors.install(app)
