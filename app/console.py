@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from typing import Annotated, Any
 
 import typer
@@ -18,6 +19,26 @@ AsJson = Annotated[bool, typer.Option("--json", help="print the result as JSON (
 def emit(data: Any) -> None:
     """Print ``data`` as one JSON document (plain stdout: no colour, no wrapping)."""
     typer.echo(json.dumps(data, indent=2, default=str))
+
+
+def numbers(metavar: str) -> Callable[[str], float]:
+    """A parser for each number of a multi-number option (``--goal X Y``): an option where a
+    number should be (``--goal -3 --shape straight``) says how many the option takes."""
+    count = len(metavar.split())
+
+    def parse(value: str | float) -> float:
+        if isinstance(value, int | float):  # a default
+            return float(value)
+        if value.startswith("--"):
+            raise typer.BadParameter(
+                f"takes {count} numbers, {metavar}; got the option {value} where a number goes"
+            )
+        try:
+            return float(value)
+        except ValueError:
+            raise typer.BadParameter(f"{value!r} is not a number ({metavar})") from None
+
+    return parse
 
 
 def fail(message: str) -> typer.Exit:
