@@ -19,8 +19,8 @@ Cell = tuple[float, float]
 
 
 class WorldView(Protocol):
-    """What the history reads of a world model: a version that changes with its occupancy
-    (optional), and its cells as ``to_dict`` lists them."""
+    """What the history reads of a world model: versions that change with its layers
+    (``version``, ``soft_version``; optional), and its cells as ``to_dict`` lists them."""
 
     def to_dict(self) -> dict[str, Any]: ...
 
@@ -38,14 +38,14 @@ class WorldHistory:
 
     def observe(self, t: float, world: WorldView) -> None:
         """Record the model at model time ``t`` if it changed and ``every`` has passed."""
-        version = getattr(world, "version", None)
+        version = versions(world)
         if t - self._t < self.every or (version is not None and version == self._version):
             return
         self.record(t, world)
 
     def record(self, t: float, world: WorldView) -> None:
         """Record the model at model time ``t`` now (a change only if cells came or went)."""
-        self._t, self._version = t, getattr(world, "version", None)
+        self._t, self._version = t, versions(world)
         listed = world.to_dict()
         change: dict[str, Any] = {"t": round(t, 3)}
         for key, source in LAYERS.items():
@@ -60,6 +60,13 @@ class WorldHistory:
             self._cells[key] = now
         if len(change) > 1:
             self.changes.append(change)
+
+
+def versions(world: WorldView) -> object:
+    """What changes whenever a layer does (None: the model keeps no versions; every record
+    then reads it)."""
+    kept = tuple(getattr(world, name, None) for name in ("version", "soft_version"))
+    return None if kept == (None, None) else kept
 
 
 def world_at(changes: list[dict[str, Any]], t: float) -> dict[str, list[list[float]]]:

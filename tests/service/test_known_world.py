@@ -36,7 +36,8 @@ def test_goals_and_obstacles_added_live_are_listed_with_when_and_how(
     mission_id = mission["id"]
     wait_for(client, mission_id, executing)
     wall = {"type": "circle", "x": -3.0, "y": 2.5, "radius": 0.3}  # flat, as in a mission
-    assert client.post(f"/missions/{mission_id}/obstacles", json=wall).status_code == 202
+    added = client.post(f"/missions/{mission_id}/obstacles", json=wall)
+    assert added.status_code == 202, added.text
     assert client.post(f"/missions/{mission_id}/goals", json={"x": -1, "y": 1.5}).status_code == 202
     old_form = {"obstacle": {"type": "circle", "x": 3.5, "y": -3.5, "radius": 0.2}}
     assert client.post(f"/missions/{mission_id}/obstacles", json=old_form).status_code == 202
