@@ -1,4 +1,6 @@
-# The two commands of the README: `make run` and `make test`. Each sets up .venv itself.
+# The two commands of the README: `make run` and `make test`. Each sets up .venv itself: `run`
+# installs what running needs (the package), `test` adds the test extras (Ray, Playwright,
+# Schemathesis, Fast Downward, the linters).
 PYTHON ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
@@ -11,25 +13,29 @@ $(BIN)/python:
 	$(BIN)/python -m pip install -q --upgrade pip
 
 $(VENV)/.installed: pyproject.toml | $(BIN)/python
+	$(BIN)/python -m pip install -q -e .
+	touch $@
+
+$(VENV)/.installed-test: $(VENV)/.installed pyproject.toml
 	$(BIN)/python -m pip install -q -e '.[test]'
 	touch $@
 
 run: $(VENV)/.installed
 	$(BIN)/screwsnake serve --host $${HOST:-127.0.0.1} --port $${PORT:-8000}
 
-lint: $(VENV)/.installed
+lint: $(VENV)/.installed-test
 	$(BIN)/ruff check .
 	$(BIN)/ruff format --check .
 
-typecheck: $(VENV)/.installed
+typecheck: $(VENV)/.installed-test
 	$(BIN)/mypy $(PACKAGES)
 
-pytest: $(VENV)/.installed
+pytest: $(VENV)/.installed-test
 	$(BIN)/pytest
 
 test: lint typecheck pytest
 
-bench: $(VENV)/.installed
+bench: $(VENV)/.installed-test
 	for b in bench/[a-z]*.py; do $(BIN)/python -m bench.$$(basename $$b .py) || exit 1; done
 
 clean:

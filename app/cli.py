@@ -12,7 +12,7 @@ from pydantic import ValidationError
 from rich.table import Table
 
 from app.api.schemas import SimulateIn
-from app.console import AsJson, console, emit, fail, invalid
+from app.console import AsJson, console, emit, fail, invalid, numbers
 from app.missions.spec import Pose
 from app.plots import plot_trajectories
 from sim.controls import Control, FixedShape, PeriodicGait
@@ -40,14 +40,33 @@ def simulate(
     case: Annotated[
         str | None, typer.Option(help=f"a paper case: {', '.join(PAPER_CASES)}")
     ] = None,
-    theta: Annotated[Quad | None, typer.Option(help="screw speeds θ̇1..4 [rad/s]")] = None,
-    joints: Annotated[Triple | None, typer.Option(help="fixed joint angles φ1..3 [rad]")] = None,
-    phases: Annotated[Triple | None, typer.Option(help="periodic gait phases ϕ1..3 [rad]")] = None,
-    start: Annotated[Triple, typer.Option(help="start pose x y ψ")] = (0.0, 0.0, 0.0),
+    theta: Annotated[
+        Quad | None,
+        typer.Option(
+            metavar="T1 T2 T3 T4", parser=numbers("T1 T2 T3 T4"), help="screw speeds (rad/s)"
+        ),
+    ] = None,
+    joints: Annotated[
+        Triple | None,
+        typer.Option(
+            metavar="P1 P2 P3", parser=numbers("P1 P2 P3"), help="held joint angles (rad)"
+        ),
+    ] = None,
+    phases: Annotated[
+        Triple | None,
+        typer.Option(metavar="F1 F2 F3", parser=numbers("F1 F2 F3"), help="gait phases (rad)"),
+    ] = None,
+    start: Annotated[
+        Triple,
+        typer.Option(metavar="X Y PSI", parser=numbers("X Y PSI"), help="start pose (m, m, rad)"),
+    ] = (0.0, 0.0, 0.0),
     duration: Annotated[float, typer.Option(help="model seconds")] = 100.0,
-    dt: Annotated[float, typer.Option(help="Euler step [model s]")] = 1.0,
+    dt: Annotated[float, typer.Option(help="Euler step (model s)")] = 1.0,
     joint_mode: Annotated[str, typer.Option(help="paper (quasi-static) or complete")] = "paper",
-    out: Annotated[Path | None, typer.Option(help="trajectory plot (PNG)")] = None,
+    out: Annotated[
+        Path | None,
+        typer.Option(help="trajectory plot (PNG); default: out/ named after the inputs"),
+    ] = None,
     as_json: AsJson = False,
 ) -> None:
     """Run one control open-loop, print the end pose and write a trajectory plot."""
@@ -85,10 +104,14 @@ def simulate(
     except ValueError as exc:
         raise fail(str(exc)) from exc
     end = states[-1]
-    name = case or "simulate"
-    path = out or Path("out") / f"{name}.png"
+    if case is not None:
+        paper = PAPER_CASES[case]
+        theta, joints, phases = paper.theta, paper.joints, paper.phases
+    settings = (config.duration, config.dt, joint_mode)
+    path = out or Path("out") / f"{output_name(case, theta, joints, phases, settings)}.png"
     times = np.arange(len(states), dtype=np.float64) * config.dt
-    plot_trajectories(path, [states], title=name, goals=[goal] if goal else [], times=[times])
+    title = simulation_title(case, theta, joints, phases, settings)
+    plot_trajectories(path, [states], title=title, goals=[goal] if goal else [], times=[times])
     error = None if goal is None else float(np.hypot(end[0] - goal[0], end[1] - goal[1]))
     if as_json:
         emit(
@@ -109,7 +132,62 @@ def simulate(
     console.print(table)
     if goal is not None:
         console.print(f"goal {goal}: distance {error:.3f} m")
-    console.print(f"plot: {path}")
+    console.print(f"plot: {path}", soft_wrap=True)
+
+
+def numbers_text(values: tuple[float, ...], sep: str = ", ") -> str:
+    return sep.join(f"{v:g}" for v in values)
+
+
+def output_name(
+    case: str | None,
+    theta: Quad | None,
+    joints: Triple | None,
+    phases: Triple | None,
+    settings: tuple[float, float, str],
+) -> str:
+    """The plot's file name, after what was simulated: two runs with other inputs never write
+    the same file (``simulate-exp4``, ``simulate-theta-1_1_-1_1-joints0_0_0``)."""
+    duration, dt, joint_mode = settings
+    if case is not None:
+        name = f"simulate-{case}"
+    else:
+        assert theta is not None
+        shape = (
+            f"phases{numbers_text(phases, '_')}"
+            if phases
+            else f"joints{numbers_text(joints or (0.0, 0.0, 0.0), '_')}"
+        )
+        name = f"simulate-theta{numbers_text(theta, '_')}-{shape}"
+    if duration != 100.0:
+        name += f"-T{duration:g}"
+    if dt != 1.0:
+        name += f"-dt{dt:g}"
+    if joint_mode != "paper":
+        name += f"-{joint_mode}"
+    return name
+
+
+def simulation_title(
+    case: str | None,
+    theta: Quad | None,
+    joints: Triple | None,
+    phases: Triple | None,
+    settings: tuple[float, float, str],
+) -> str:
+    """What the plot shows: the case and its parameters, the duration and step."""
+    duration, dt, joint_mode = settings
+    assert theta is not None
+    shape = (
+        f"gait phases ({numbers_text(phases)}) rad"
+        if phases
+        else f"joints ({numbers_text(joints or (0.0, 0.0, 0.0))}) rad"
+    )
+    head = f"{case} ({PAPER_CASES[case].figure} of the paper): " if case else "open loop: "
+    return (
+        f"{head}screw speeds ({numbers_text(theta)}) rad/s, {shape}\n"
+        f"{duration:g} model s, dt {dt:g} s, {joint_mode} kinematics"
+    )
 
 
 @cli.command()
@@ -120,6 +198,11 @@ def serve(
     """Serve the API, the websocket and the viewer (SQLite file and bundled library by default)."""
     import uvicorn
 
+    from app.settings import Settings, missing_extra
+
+    needed = missing_extra(Settings.from_env())
+    if needed is not None:
+        raise fail(needed)
     console.print(f"screwsnake serving on http://{host}:{port}/  (API docs at /docs)")
     uvicorn.run("app.main:app", host=host, port=port, log_level="info")
 

@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+from collections import Counter
 from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich import box
+from rich.console import Console
+from rich.markup import escape
 from rich.table import Table
 
 from app.cli_primitives import load_library
@@ -16,33 +20,23 @@ from app.mission_plot import plot_mission, sensed_cells
 from app.missions.spec import MissionFileError, load_mission
 
 
-def print_summary(result: MissionResult) -> None:
+def print_summary(result: MissionResult, verbose: bool = False, wide: bool = False) -> None:
+    """The outcome in a few lines (goals, replans and primitives in brief); with ``verbose``
+    every replan and every run of a primitive. Primitive ids are never cut: at the terminal's
+    width they wrap, with ``wide`` each row is one line however long."""
     colour = "green" if result.status == "succeeded" else "red"
-    console.print(f"[bold {colour}]{result.status}[/]: {result.reason}")
-    table = Table(title="goals")
-    for col in ("#", "x", "y", "tolerance (m)", "reached", "error (m)", "at (s)"):
+    console.print(f"[bold {colour}]{result.status}[/]: {escape(result.reason)}", soft_wrap=True)
+    table = Table(title="goals", box=box.SIMPLE_HEAD, pad_edge=False)
+    for col in ("#", "x (m)", "y (m)", "tolerance (m)", "reached", "error (m)", "at (s)"):
         table.add_column(col, justify="right")
     for i, g in enumerate(result.goals):
         err = "" if g.error is None else f"{g.error:.3f}"
         at = "" if g.reached_at is None else f"{g.reached_at:g}"
-        table.add_row(
-            str(i),
-            f"{g.x:g}",
-            f"{g.y:g}",
-            f"{g.tolerance:g}",
-            "yes" if g.reached else "no",
-            err,
-            at,
-        )
+        reached = "removed" if g.removed else ("yes" if g.reached else "no")
+        table.add_row(str(i), f"{g.x:g}", f"{g.y:g}", f"{g.tolerance:g}", reached, err, at)
     console.print(table)
-    if result.replans:
-        rt = Table(title=f"{len(result.replans)} replans")
-        for col in ("at (s)", "trigger", "latency (ms)", "status"):
-            rt.add_column(col)
-        for r in result.replans:
-            rt.add_row(f"{r.at:g}", r.trigger, f"{r.latency_ms:.1f}", r.status)
-        console.print(rt)
-    print_executed(result)
+    print_replans(result, verbose, wide)
+    print_executed(result, verbose, wide)
     ratio = result.model_time / max(result.wall_time, 1e-9)
     console.print(
         f"collisions: {result.collisions}   model time: {result.model_time:g} s   "
@@ -50,24 +44,78 @@ def print_summary(result: MissionResult) -> None:
     )
 
 
-EXECUTED_ROWS = 40  # rows of the executed-primitives table before it is cut short
+def counted(items: list[str]) -> str:
+    """``a ×3, b ×1``, most frequent first."""
+    return ", ".join(f"{item} ×{n}" for item, n in Counter(items).most_common())
 
 
-def print_executed(result: MissionResult) -> None:
-    """The primitives the mission ran, in order (one row per action and grounding)."""
+def print_replans(result: MissionResult, verbose: bool, wide: bool) -> None:
+    if not result.replans:
+        console.print("replans: none")
+        return
+    latencies = [r.latency_ms for r in result.replans]
+    console.print(
+        f"replans: {len(result.replans)} ({counted([r.trigger for r in result.replans])}), "
+        f"planning {min(latencies):.1f}-{max(latencies):.1f} ms",
+        soft_wrap=wide,
+    )
+    if not verbose:
+        return
+    table = Table(box=box.SIMPLE_HEAD, pad_edge=False)
+    for col in ("at (s)", "trigger", "latency (ms)", "status"):
+        table.add_column(col, no_wrap=wide, overflow="fold")
+    for r in result.replans:
+        table.add_row(f"{r.at:g}", r.trigger, f"{r.latency_ms:.1f}", r.status)
+    show(table, wide)
+
+
+def print_executed(result: MissionResult, verbose: bool, wide: bool) -> None:
+    """The primitives the mission ran: in brief, or (``verbose``) every run in order, its
+    action and the primitives it ran (an interpolation blends several)."""
     runs = [e for e in result.executed if e["labels"]]
     if not runs:
         return
-    table = Table(title=f"executed primitives ({len(runs)} runs)")
-    for col in ("from (s)", "to (s)", "action", "grounding", "primitives"):
-        table.add_column(col)
-    for e in runs[:EXECUTED_ROWS]:
-        table.add_row(
-            f"{e['from']:g}", f"{e['to']:g}", e["action"], str(e["method"]), "+".join(e["labels"])
+    methods = counted([str(e["method"]) for e in runs])
+    used = Counter(label for e in runs for label in e["labels"])
+    top = ", ".join(f"{label} ({n})" for label, n in used.most_common(3))
+    console.print(
+        f"executed: {len(runs)} runs ({methods}) of {len(used)} primitives; most used: {top}",
+        soft_wrap=wide,
+    )
+    if not verbose:
+        console.print("(--verbose: every replan and every run)")
+        return
+    table = Table.grid(padding=(0, 2))
+    table.add_column(justify="right", no_wrap=True)
+    table.add_column(no_wrap=True)
+    table.add_column(overflow="fold", no_wrap=wide)  # ids wrap at " + ", never cut
+    for e in runs:
+        span = f"{e['from']:g}-{e['to']:g} s"
+        table.add_row(span, str(e["method"]), f"{e['action']}\n  " + " + ".join(e["labels"]))
+    show(table, wide)
+
+
+def show(table: Table, wide: bool) -> None:
+    """A table at the terminal's width (cells wrap, nothing is cut), or at its own."""
+    if wide:  # a console of the table's own width (a console's print never goes wider)
+        Console(file=console.file, width=max(console.width, table_width(table))).print(table)
+    else:
+        console.print(table)
+
+
+def table_width(table: Table) -> int:
+    """The width of ``table`` with every cell on one line."""
+    return (
+        sum(
+            max(
+                [len(str(col.header))]
+                + [len(line) for cell in col.cells for line in str(cell).splitlines()]
+            )
+            + 2
+            for col in table.columns
         )
-    console.print(table)
-    if len(runs) > EXECUTED_ROWS:
-        console.print(f"... {len(runs) - EXECUTED_ROWS} more runs (see the mission result)")
+        + 2
+    )
 
 
 def mission(
@@ -76,6 +124,12 @@ def mission(
     library: Annotated[
         Path | None, typer.Option(help="primitive library (default: bundled)")
     ] = None,
+    verbose: Annotated[
+        bool, typer.Option("--verbose", "-v", help="every replan and every primitive run")
+    ] = False,
+    wide: Annotated[
+        bool, typer.Option("--wide", help="tables one row a line, however wide (no wrapping)")
+    ] = False,
     as_json: AsJson = False,
 ) -> None:
     """Run a mission headless, print a summary and write a trajectory plot."""
@@ -89,8 +143,8 @@ def mission(
     if as_json:
         emit({**result.summary(), "plot": str(path)})
     else:
-        print_summary(result)
-        console.print(f"plot: {path}")
+        print_summary(result, verbose, wide)
+        console.print(f"plot: {path}", soft_wrap=True)
     if result.status != "succeeded":
         raise typer.Exit(code=1)
 
@@ -142,4 +196,4 @@ def paper(
     for row in rows:
         table.add_row(*row)
     console.print(table)
-    console.print(f"plot: {path}")
+    console.print(f"plot: {path}", soft_wrap=True)

@@ -14,7 +14,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rich.table import Table
 
 from app.api.schemas import LearnIn
-from app.console import AsJson, console, emit, fail, invalid
+from app.console import AsJson, console, emit, fail, invalid, numbers
 from app.plots import plot_learning_curves, plot_trajectories
 from primitives.build import build_library
 from primitives.catalogue import FAMILIES, PrimitiveSpec, default_specs, grid_specs, lattice_specs
@@ -32,15 +32,21 @@ library_cli = typer.Typer(
 
 
 def learn(
-    goal: Annotated[tuple[float, float], typer.Option(help="goal x y in the start frame [m]")],
+    goal: Annotated[
+        tuple[float, float],
+        typer.Option(metavar="X Y", parser=numbers("X Y"), help="goal in the start frame (m)"),
+    ],
     shape: Annotated[
         str, typer.Option(help=f"one of {', '.join(SHAPES)}, or 'free' (U2)")
     ] = "straight",
     learner: Annotated[str, typer.Option(help=f"one of {', '.join(LEARNERS)}")] = "pi2",
     seed: Annotated[int, typer.Option(help="random seed")] = 0,
-    threshold: Annotated[float, typer.Option(help="stop below this cost [m]")] = 0.05,
+    threshold: Annotated[float, typer.Option(help="stop below this cost (m)")] = 0.05,
     max_updates: Annotated[int, typer.Option(help="update budget")] = 100,
-    out: Annotated[Path, typer.Option(help="learning-curve plot (PNG)")] = Path("out/learn.png"),
+    out: Annotated[
+        Path | None,
+        typer.Option(help="learning-curve plot (PNG); default: out/ named after the inputs"),
+    ] = None,
     as_json: AsJson = False,
 ) -> None:
     """Learn one primitive, with a progress bar and a learning-curve plot; exits 1 when it
@@ -79,8 +85,13 @@ def learn(
 
         result = algo.learn(task, seed, stop, progress=tick)
     theta, joints, phases = space.split(result.params)
+    x, y = goal
+    out = out or Path("out") / f"learn-{shape}-goal{x:g}_{y:g}-{learner}-seed{seed}.png"
     plot_learning_curves(
-        out, [result.curve], title=f"{algo.name}: goal {goal}, {shape}", threshold=threshold
+        out,
+        [result.curve],
+        title=f"learning {shape} to goal ({x:g}, {y:g}) m: {algo.name}, seed {seed}",
+        threshold=threshold,
     )
     if as_json:
         emit(
@@ -108,7 +119,7 @@ def learn(
         console.print(f"theta = {np.round(theta, 3).tolist()}")
         shape_values = phases if phases is not None else joints or []
         console.print(f"{'phases' if phases else 'joints'} = {np.round(shape_values, 3).tolist()}")
-        console.print(f"plot: {out}")
+        console.print(f"plot: {out}", soft_wrap=True)
     if not result.converged:
         raise typer.Exit(code=1)  # like a failed mission: scripts see that it did not work
 
@@ -285,7 +296,8 @@ def library_plot(
     plot_trajectories(
         out,
         states,
-        title=f"{shape} primitives",
+        title=f"{len(entries)} {shape} primitives of {(path or bundled_library_path()).name}, "
+        "each from the start pose (0, 0, ψ = 0)",
         goals=[e.goal for e in entries],
         outlines=2,
         labels=[e.name for e in entries],
@@ -293,4 +305,4 @@ def library_plot(
     if as_json:
         emit({"plot": str(out), "primitives": [e.id for e in entries]})
         return
-    console.print(f"plot: {out}")
+    console.print(f"plot: {out}", soft_wrap=True)

@@ -35,15 +35,22 @@ from app.service.intake import Intake
 from app.service.jobs import Jobs
 from app.service.metrics import Metrics
 from app.service.supervisor import Supervisor
-from app.settings import Settings
+from app.settings import Settings, missing_extra
 from app.store.db import make_engine, migrate
 from app.store.repo import Store
 from primitives.build import code_version
 from primitives.library import Library, bundled_library_path
 
 
+class MissingExtra(RuntimeError):
+    """The settings ask for an optional package that is not installed."""
+
+
 def create_app(settings: Settings | None = None) -> FastAPI:
     config = settings or Settings.from_env()
+    needed = missing_extra(config)
+    if needed is not None:
+        raise MissingExtra(needed)
     db_health = faults.DbHealth()
 
     @asynccontextmanager
@@ -98,6 +105,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         lifespan=lifespan,
         openapi_tags=docs.TAGS,
         static_url="/docs-assets",
+        redoc_url=None,  # app.api.docs serves ReDoc, its bundle's CDN badge inlined
     )
     app.state.db_health = db_health
     errors.install(app)
@@ -132,4 +140,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
     return app
 
 
-app = create_app()
+try:
+    app = create_app()
+except MissingExtra as exc:  # one line and a non-zero exit, not a traceback from the lifespan
+    raise SystemExit(f"screwsnake: {exc}") from None

@@ -3,7 +3,8 @@
 One look for every trajectory plot (``mission``, ``paper``, ``simulate``, ``library plot``): the
 view fits what moved (with a margin) rather than the whole arena; one path is coloured by model
 time (with a colour bar), several paths are labelled runs; events are markers grouped in a
-compact legend (never stacked text labels); the legend sits outside the axes.
+compact legend (never stacked text labels); the start of each path is marked; the legend sits
+outside the axes.
 """
 
 from __future__ import annotations
@@ -157,7 +158,21 @@ def trajectory_figure(
             g[:, 0], g[:, 1], "o", ms=9, mfc="none", mec="tab:green", mew=2, label="goal"
         )
         extent.append(g)
-    handles += ax.plot(0, 0, "k+", ms=10, label="origin")
+    starts = np.unique(
+        np.round([states[0, :2] for states in trajectories if len(states)], 6), axis=0
+    )
+    if len(starts):  # where each path begins (the paper's start pose, or a mission's)
+        handles += ax.plot(
+            starts[:, 0],
+            starts[:, 1],
+            "o",
+            ms=8,
+            mfc="white",
+            mec="k",
+            mew=1.5,
+            zorder=5,
+            label="start" if len(starts) == 1 else "starts",
+        )
     if points:
         pts = np.asarray(points, dtype=float)
         handles += ax.plot(

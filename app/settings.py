@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import os
 from functools import cache
 from pathlib import Path
@@ -111,3 +112,14 @@ def _max_obstacles(raw: str | None) -> int:
         default: int = Settings.model_fields["max_obstacles"].default
         return default
     return Settings.model_validate({"max_obstacles": raw}).max_obstacles
+
+
+def missing_extra(settings: Settings) -> str | None:
+    """What to install before these settings can run (one line), or None: an executor whose
+    package is absent would otherwise fail at start with a bare ModuleNotFoundError."""
+    if settings.executor == "ray" and importlib.util.find_spec("ray") is None:
+        return (
+            "SCREWSNAKE_EXECUTOR=ray needs Ray, which is not installed: "
+            "pip install 'screwsnake[ray]' (or unset SCREWSNAKE_EXECUTOR to run missions locally)"
+        )
+    return None

@@ -6,7 +6,7 @@ primitives").
 1. Families of lattice primitives removed from the library, in memory: the plans change, or a
    goal becomes unreachable with the reason saying so. Variants: the full library; without the
    straight shape's translations to the robot's left (start-frame dy < 0: the robot lies on +x
-   facing −x, so its left is −y, kinematics.md §5); without every 0.05 m translation; without
+   facing −x, so its left is −y, docs/robot-model.md); without every 0.05 m translation; without
    every turn; without any lattice primitive of the straight shape.
 2. Deliberately poor primitives: every lattice primitive's screw speeds scaled by 0.9 and turned
    by a small seeded rotation in R⁴, with ``end_pose`` and ``swept`` recomputed by rolling the

@@ -1,7 +1,7 @@
 """Learning benchmarks: the paper's Experiments 1-4 over 10 seeds, and learners side by side.
 
 Part 1 reproduces Exps 1-4 with the paper's PI² (paper: 12-20 updates). Part 2 runs every
-learner on Exps 1-4 (DESIGN §8: no failed seed). Part 3 compares rollouts to reach < 5 cm and
+learner on Exps 1-4 (target, bench/README.md: no failed seed). Part 3 compares rollouts to reach < 5 cm and
 wall time per learner over 10 seeds on the eight Fig. 6 goals for two shapes (target: the best
 learner needs at most half the paper PI²'s rollouts). Part 4 learns the 110 lattice primitives
 with each learner (3 mm / 0.17° threshold, retimed to 0.8 rad/s).

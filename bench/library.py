@@ -1,6 +1,6 @@
 """Library build time: serial, 1 and 2 local workers, and Ray when installed.
 
-DESIGN §8: the paper primitives in <= 5 s on 2 cores; all of them, with the 110 lattice
+Target (bench/README.md): the paper primitives in <= 5 s on 2 cores; all of them, with the 110 lattice
 primitives, in <= 30 s (the "all" suite is exactly what ``screwsnake library build`` bundles).
 """
 

@@ -1,7 +1,7 @@
 """Load: a burst of N missions (20) posted at once, a websocket client each, and a stream of
 GET /plan and POST /missions requests, against a real uvicorn server on loopback, while a CPU
-burner process loads another core (DESIGN §8, issue 15: API p99 <= 100 ms, every client gets
-every mission's ``end`` frame; mission start latency after the burst).
+burner process loads another core (targets in bench/README.md: API p99 <= 100 ms, every
+client gets every mission's ``end`` frame; mission start latency after the burst).
 
 ``--executor local|ray|both``: the warm local pool, Ray actors on a local Ray instance, or both
 one after the other, with the outcomes of the same seeded missions side by side (they must be

@@ -1,5 +1,5 @@
 """Every mission of examples/, examples/hard/ and examples/untuned/, as fast as possible, checked
-against what it expects (DESIGN §8: accuracy, contacts, model time / wall time).
+against what it expects (bench/README.md, targets: accuracy, contacts, model time / wall time).
 
     python -m bench.missions [--only PATTERN] [--set DIR] [--noise SIGMA] [--repeat N] [--workers 2]
         [--cap 120]
@@ -186,7 +186,7 @@ def run_spec(set_name: str, spec: MissionSpec, repeat: int, cap: float) -> Run:
         accurate = all(
             g.reached and g.error is not None and g.error <= g.tolerance for g in result.goals
         )
-        # DESIGN §8: nothing known touched, a hidden obstacle at most once (found by touch)
+        # the target (bench/README.md): nothing known touched, a hidden obstacle at most once (found by touch)
         met = met and accurate and row.known_contacts == 0 and row.repeated_contacts == 0
     row.ok = met
     return Run(row, runner, result)

@@ -8,9 +8,10 @@ it replans as a mission does: the rest of its plan repaired around the change wh
 detour will do (domain/lattice_repair.py), planned whole otherwise ("repaired" counts the
 first). A second table blocks one cell on the path 1 m ahead in arenas of 5-40 m and prints
 the replan time, repaired and from scratch, with its log-log slope against the number of
-lattice states (DESIGN §8 target: < 0.5). DESIGN §8 target: replan p95 <= 50 ms on 10 m x
-10 m at the resolution that passes 0.30 m corridors (0.05 m cells, 64 orientations). ``--load`` keeps the other core busy (a
-spinning child process) for the under-load figure. The one-off costs of a process (the
+lattice states (target: < 0.5). Target: replan p95 <= 20 ms on 10 m x 10 m at the
+resolution that passes 0.30 m corridors (0.05 m cells, 64 orientations); bench/README.md
+holds the targets. ``--load`` keeps the other core busy (a spinning child process) for the
+under-load figure. The one-off costs of a process (the
 motion table, the compiled kernels loading) are timed apart before the figures.
 
 The first plan's problem, as the mission stores it (domain/lattice_pddl.py), is then given to

@@ -13,7 +13,7 @@ from primitives.shapes import FIXED_SHAPES, SHAPES
 Family = Literal["paper", "lattice"]
 FAMILIES: tuple[Family, ...] = ("paper", "lattice")
 
-# Fig. 6: G1..G8 as start-frame displacements (kinematics.md §9).
+# Fig. 6: G1..G8 as start-frame displacements (docs/robot-model.md, "Frames and the paper's angle labels").
 FIG6_GOALS: tuple[tuple[float, float], ...] = (
     (2.0, 2.0),
     (0.0, 2.0),
@@ -69,7 +69,7 @@ def label_for(shape: str, goal_index: int) -> str | None:
 
 
 def default_specs(shapes: tuple[str, ...] = tuple(SHAPES)) -> list[PrimitiveSpec]:
-    """Every shape × G1..G8 (DESIGN §4), plus the paper's P5pe."""
+    """Every shape × G1..G8, plus the paper's P5pe."""
     specs = []
     for shape in shapes:
         for i, goal in enumerate(FIG6_GOALS, start=1):

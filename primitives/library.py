@@ -1,4 +1,4 @@
-"""The primitive library: entries (DESIGN §4), a versioned JSON format, validation and queries.
+"""The primitive library: entries (id, label, shape, parameters, goal, learning record), a versioned JSON format, validation and queries.
 
 Two families of entries: ``paper`` primitives (one 100 s rollout to a Fig. 6 goal of the tracked
 point) and ``lattice`` primitives (short centroid translations and turns in place, for planners

@@ -64,7 +64,7 @@ class Move:
 
 def paper_angle(offset: Sequence[float]) -> float:
     """A start-frame direction in the paper's labels: degrees from the head (−x), clockwise
-    in our frame (kinematics.md §9), in (−180, 180]."""
+    in our frame (docs/robot-model.md, "Frames and the paper's angle labels"), in (−180, 180]."""
     ours = math.degrees(math.atan2(float(offset[1]), float(offset[0])))
     return 0.0 - math.remainder(ours - 180.0, 360.0) + 0.0
 

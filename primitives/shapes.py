@@ -1,4 +1,4 @@
-"""Named body shapes of the library (DESIGN §4) and classification of sensed joint angles."""
+"""Named body shapes of the library and classification of sensed joint angles."""
 
 from __future__ import annotations
 

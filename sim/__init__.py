@@ -1,1 +1,1 @@
-"""Kinematic simulator of the four-unit screw-drive snake robot (kinematics.md)."""
+"""Kinematic simulator of the four-unit screw-drive snake robot (docs/robot-model.md)."""

@@ -65,7 +65,7 @@ def check_joint_angles(phi: Array, geometry: RobotGeometry, name: str = "joints"
 
 
 def clamp_joints(phi: Array, geometry: RobotGeometry) -> Array:
-    """Keep joints off the singular all-parallel shapes at exactly ±π/2 (kinematics.md §3)."""
+    """Keep joints off the singular all-parallel shapes at exactly ±π/2 (docs/robot-model.md, "Solving")."""
     m = geometry.max_joint_angle
     # np.clip's own numbers (the larger of phi and -m, then the smaller of that and m)
     # without its Python-level checks: the simulator clamps three angles every step

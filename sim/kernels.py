@@ -1,6 +1,6 @@
 """Compiled rollout kernels (numba): each rollout is one loop over its steps, on scalars.
 
-The same model as the numpy path of ``sim/rollout.py`` (kinematics.md §2-§5), written for a
+The same model as the numpy path of ``sim/rollout.py`` (docs/robot-model.md), written for a
 compiler instead of for whole-array operations: the numpy path pays for ~100 array operations
 and their temporaries, this for ~8 trig calls per step (~90 ns). Trig is saved by angle addition:
 the unit headings' cosines and sines are products of the joints' ones, and a gait's
@@ -119,7 +119,7 @@ def lstsq4(
 def shape_twist(
     cos_phi: Array, sin_phi: Array, theta: Array, dphi: Array, geo: Array
 ) -> tuple[float, float, float]:
-    """Body-frame twist ``(vx, vy, ψ̇)`` of one shape (kinematics.md §2): joints given by their
+    """Body-frame twist ``(vx, vy, ψ̇)`` of one shape (docs/robot-model.md, "Motion"): joints given by their
     cosines and sines ``[3]``, screw speeds ``[4]``, joint rates ``[3]`` (zeros: paper mode)."""
     # e^{iθ_i} of the unit headings θ_0 = 0, θ_i = φ_0 + ... + φ_{i-1}: products, no trig.
     hc1, hs1 = cos_phi[0], sin_phi[0]

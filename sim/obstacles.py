@@ -195,7 +195,7 @@ Obstacle = Circle | Polygon
 
 
 def obstacle_from_dict(data: dict[str, object]) -> Obstacle:
-    """Build an obstacle from the API's JSON form (DESIGN §10)."""
+    """Build an obstacle from the API's JSON form (a mission's `obstacles`, docs/mission-format.md)."""
     kind = data.get("type")
     known = bool(data.get("known", True))
     name = str(data.get("name", ""))

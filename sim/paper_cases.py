@@ -1,4 +1,4 @@
-"""The parameter sets the paper publishes, with their goals (kinematics.md §6)."""
+"""The parameter sets the paper publishes, with their goals (docs/robot-model.md, "How well it matches the paper")."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Scalar reference model: kinematics.md §8 line by line, one rollout at a time.
+"""Scalar reference model: the model of docs/robot-model.md line by line, one rollout at a time.
 
 This is the oracle the batched simulator is checked against (tests) and measured against
 (``bench/sim.py``). It solves the world-frame constraints with ``np.linalg.lstsq`` each step.
@@ -19,7 +19,7 @@ JointFunction = Callable[[float], Array]
 def world_constraint_matrices(
     psi: float, phi: Sequence[float] | Array, geometry: RobotGeometry = DEFAULT_GEOMETRY
 ) -> tuple[Array, Array]:
-    """World-frame ``A_b`` and ``A_j`` (4×3 each) built row by row as in kinematics.md §2."""
+    """World-frame ``A_b`` and ``A_j`` (4×3 each) built row by row as in docs/robot-model.md ("Motion")."""
     th = [psi, psi + phi[0], psi + phi[0] + phi[1], psi + phi[0] + phi[1] + phi[2]]
     seg = geometry.segments
     alpha = geometry.alpha

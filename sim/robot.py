@@ -1,4 +1,4 @@
-"""Robot geometry and the batched no-side-slip kinematics of kinematics.md §1-§4.
+"""Robot geometry and the batched no-side-slip kinematics of docs/robot-model.md.
 
 Every function here works on stacks: a leading batch shape ``[...]`` over rollouts (and time)
 with the robot's own axes last. The body-frame twist of a shape does not depend on the pose
@@ -21,7 +21,7 @@ N_JOINTS = 3
 
 @dataclass(frozen=True)
 class RobotGeometry:
-    """Physical parameters of the robot (kinematics.md §1 table) and its footprint."""
+    """Physical parameters of the robot (docs/robot-model.md, the table) and its footprint."""
 
     screw_radius: float = 0.075
     front_length: float = 0.103  # l1: front joint -> screw centre
@@ -123,7 +123,7 @@ def constraint_matrices(
 ) -> tuple[Array, Array]:
     """Body-frame (ψ = 0) constraint matrices ``A_b, A_j``, each ``[..., 4, 3]``.
 
-    Row i is ``cos(θ_i+α_i)·ẋ + sin(θ_i+α_i)·ẏ + m_i·ψ̇ + Σ_{k<i} c_ik·φ̇_k`` (kinematics.md §2),
+    Row i is ``cos(θ_i+α_i)·ẋ + sin(θ_i+α_i)·ẏ + m_i·ψ̇ + Σ_{k<i} c_ik·φ̇_k`` (docs/robot-model.md, "Motion"),
     with ``m_i = l1 sin α_i + Σ_{j<i} S_ij``, ``c_ik = l1 sin α_i + Σ_{k<j<i} S_ij`` and
     ``S_ij = s_j sin(α_i + θ_i − θ_j)``.
     """
@@ -220,7 +220,7 @@ def head_tip(pose: Array, geometry: RobotGeometry = DEFAULT_GEOMETRY) -> Array:
 
 
 def unit_centres(pose: Array, phi: Array, geometry: RobotGeometry = DEFAULT_GEOMETRY) -> Array:
-    """Screw centres p_1..p_4 (kinematics.md §1), ``[..., 4, 2]``, for poses ``[..., 3]``."""
+    """Screw centres p_1..p_4 (docs/robot-model.md), ``[..., 4, 2]``, for poses ``[..., 3]``."""
     th = pose[..., 2:3] + unit_headings(phi)  # [..., 4]
     axes = np.stack([np.cos(th), np.sin(th)], axis=-1)  # [..., 4, 2]
     rear = joint_positions(pose, phi, geometry)[..., :-1, :]  # J_0 (tracked point) .. J_3

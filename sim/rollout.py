@@ -1,6 +1,6 @@
 """Batched open-loop rollouts: K controls simulated at once, without a Python loop.
 
-Explicit Euler on (x, y, ψ) exactly as kinematics.md §5. Two kernels compute the same thing:
+Explicit Euler on (x, y, ψ) exactly as docs/robot-model.md ("Time"). Two kernels compute the same thing:
 
 - ``numba`` (``sim/kernels.py``): one compiled loop per rollout, ~5× the numpy path at K = 40
   (~350× the scalar reference, ``bench/sim.py``); the default whenever numba is importable.

@@ -1,1 +1,1 @@
-"""The HTTP and websocket API (DESIGN §10), one router per resource."""
+"""The HTTP and websocket API (the shapes of docs/mission-format.md), one router per resource."""

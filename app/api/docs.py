@@ -3,9 +3,14 @@
 
 from __future__ import annotations
 
+from functools import cache
+from pathlib import Path
 from typing import Any
 
-from fastapi import APIRouter
+import fastapi_offline
+from fastapi import APIRouter, Request
+from fastapi.openapi.docs import get_redoc_html
+from fastapi.responses import HTMLResponse, Response
 
 from app.api.frames import asyncapi
 
@@ -52,3 +57,33 @@ def get_asyncapi() -> dict[str, Any]:
     """The websocket protocol of ``/missions/{id}/ws`` as AsyncAPI 3.0, with a JSON Schema
     for every frame type."""
     return asyncapi()
+
+
+# ReDoc's bundle draws its "API docs by Redocly" badge from its CDN (one failed request and a
+# console error offline): served here with the badge's image inlined.
+REDOC_JS = Path(fastapi_offline.__file__).parent / "static" / "redoc.standalone.js"
+REDOC_LOGO = "https://cdn.redoc.ly/redoc/logo-mini.svg"
+BLANK_SVG = "data:image/svg+xml,%3Csvg xmlns='http://www.w3.org/2000/svg' width='1' height='1'/%3E"
+
+
+@cache
+def redoc_bundle() -> bytes:
+    return REDOC_JS.read_text(encoding="utf-8").replace(REDOC_LOGO, BLANK_SVG).encode("utf-8")
+
+
+@router.get("/redoc", include_in_schema=False)
+def redoc(request: Request) -> HTMLResponse:
+    """ReDoc, with every asset from this app."""
+    root = request.scope.get("root_path", "")
+    return get_redoc_html(
+        openapi_url=f"{root}/openapi.json",
+        title="screwsnake - ReDoc",
+        redoc_js_url=f"{root}/redoc.js",
+        with_google_fonts=False,
+        redoc_favicon_url=f"{root}/docs-assets/favicon.png",
+    )
+
+
+@router.get("/redoc.js", include_in_schema=False)
+def redoc_js() -> Response:
+    return Response(redoc_bundle(), media_type="text/javascript")

@@ -20,6 +20,9 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 PROBLEM = "application/problem+json"
 log = logging.getLogger("screwsnake.api")
 BODY_PARSE_ERROR = "There was an error parsing the body"  # FastAPI's 400 for an unreadable body
+SEND_JSON = "send JSON (application/json)"
+# pydantic's error types when the body as a whole is no JSON object (a form, plain text, empty)
+NOT_AN_OBJECT = {"model_attributes_type", "dict_type", "model_type", "missing"}
 
 
 class FieldError(BaseModel):
@@ -93,9 +96,20 @@ def field_of(loc: tuple[Any, ...] | list[Any], kind: str = "") -> str:
     return ".".join(parts) or "body"
 
 
+def body_problem(request: Request, kind: str) -> str:
+    """Why a body is not the JSON object a route takes: empty, sent as another media type, or
+    JSON of another kind (a list, a number)."""
+    if kind == "missing":
+        return "the body is empty"
+    media = request.headers.get("content-type", "").split(";")[0].strip().lower()
+    if media and media != "application/json" and not media.endswith("+json"):
+        return f"the body came as {media}"
+    return "the body is not a JSON object"
+
+
 def install(app: FastAPI) -> None:
     @app.exception_handler(RequestValidationError)
-    async def _invalid(_: Request, exc: RequestValidationError) -> JSONResponse:
+    async def _invalid(request: Request, exc: RequestValidationError) -> JSONResponse:
         errors = []
         for e in exc.errors():
             kind = str(e.get("type", ""))
@@ -103,7 +117,9 @@ def install(app: FastAPI) -> None:
             msg = str(e.get("msg", "invalid"))
             if kind == "json_invalid":
                 ctx = e.get("ctx") or {}
-                msg = f"not valid JSON ({ctx.get('error', 'decode error')})"
+                msg = f"{SEND_JSON}: not valid JSON ({ctx.get('error', 'decode error')})"
+            elif kind in NOT_AN_OBJECT and tuple(e.get("loc", ())) == ("body",):
+                msg = f"{SEND_JSON}: {body_problem(request, kind)}"
             if field in ("body", "") and msg.startswith("Value error, ") and ":" in msg:
                 # model-level checks name the field first: "goals.0: inside obstacles.1"
                 field = msg.removeprefix("Value error, ").split(":", 1)[0]
@@ -117,7 +133,7 @@ def install(app: FastAPI) -> None:
     async def _http(_: Request, exc: StarletteHTTPException) -> JSONResponse:
         if exc.status_code == 400 and exc.detail == BODY_PARSE_ERROR:
             # An unreadable body (e.g. a broken form encoding) is bad input like malformed JSON.
-            return problem(422, "body: could not be parsed", field="body")
+            return problem(422, f"body: could not be parsed; {SEND_JSON}", field="body")
         detail = str(exc.detail) if exc.status_code < 500 else "internal error"
         response = problem(exc.status_code, detail, getattr(exc, "field", None))
         for key, value in (exc.headers or {}).items():

@@ -11,9 +11,9 @@ from app import timing
 from app.api.deps import MissionId, Services, Svc, writer
 from app.api.errors import ApiError, responses
 from app.api.examples import mission_examples
+from app.api.known import current_goals, known_obstacles
 from app.api.limits import check_mission
 from app.api.schemas import (
-    GoalOut,
     MissionOut,
     MissionPage,
     PddlOut,
@@ -36,10 +36,6 @@ def resource(
 ) -> MissionOut:
     """The mission as the API shows it; ``transitions`` when known (else read)."""
     state = row.state or {}
-    spec_goals = row.request.get("goals", [])
-    goals = state.get("goals") or [
-        {"x": g["x"], "y": g["y"], "tolerance": g.get("tolerance", 0.1)} for g in spec_goals
-    ]
     start = row.request.get("start", {})
     pose = state.get("pose") or {
         "x": start.get("x", 0.0),
@@ -59,7 +55,8 @@ def resource(
             TransitionOut(status=MissionStatus(t.status), at=t.at, reason=t.reason)
             for t in svc.store.transitions(row.id)
         ],
-        goals=[GoalOut.model_validate(g) for g in goals],
+        goals=current_goals(row),
+        obstacles=known_obstacles(row),
         pose=PoseOut.model_validate(pose),
         model_time=state.get("model_time", 0.0),
         collisions=state.get("collisions", 0),
@@ -230,8 +227,13 @@ def get_plan_query(
     "/missions/{mission_id}/trajectory", response_model=TrajectoryOut, responses=responses(404)
 )
 def get_trajectory(mission_id: MissionId, svc: Svc) -> TrajectoryOut:
+    """Where the robot went; while the mission runs, its path so far as the state frames
+    told it (a row every 0.25 model s at most)."""
     found(svc, mission_id)
-    return TrajectoryOut(mission=mission_id, points=svc.store.trajectory(mission_id) or [])
+    points = svc.store.trajectory(mission_id)
+    if points is None:
+        points = list(svc.hub.trails.get(mission_id, []))
+    return TrajectoryOut(mission=mission_id, points=points)
 
 
 @router.get("/missions/{mission_id}/pddl", response_model=list[PddlOut], responses=responses(404))

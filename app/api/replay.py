@@ -2,27 +2,51 @@
 
 from __future__ import annotations
 
-from typing import Any
+from typing import Annotated, Any
 
-from fastapi import APIRouter
+from fastapi import APIRouter, Query
 from pydantic import BaseModel, Field
 
 from app.api.deps import MissionId, Svc
 from app.api.errors import responses
+from app.api.known import current_goals, known_obstacles
 from app.api.missions import found, plan_of
-from app.api.schemas import ReplanOut
+from app.api.schemas import GoalOut, KnownObstacleOut, ReplanOut
+from app.service.world_history import world_at
 
 router = APIRouter(tags=["missions"])
 
 
 class WorldOut(BaseModel):
-    """The robot's world model as last stored: sensed occupancy and contact cells (centres)."""
+    """The robot's world model: what it knows (the goals, the known obstacles, posted or added
+    live) and what it sensed (occupancy and contact cells, by their centres)."""
 
     mission: str = Field(description="the mission's id")
-    model_time: float = Field(description="when it was stored, model seconds")
+    model_time: float = Field(description="the model time it shows, model seconds")
     resolution: float | None = Field(description="cell size of the grid, metres")
     sensed: list[list[float]] = Field(description="centres [x, y] of cells sensed occupied, m")
     contacts: list[list[float]] = Field(description="centres [x, y] of cells a bumper felt, m")
+    goals: list[GoalOut] = Field(
+        default=[], description="the goals by index, live ones included (as the mission's)"
+    )
+    obstacles: list[KnownObstacleOut] = Field(
+        default=[], description="the known obstacles, live ones included, with when they came"
+    )
+
+
+class WorldChange(BaseModel):
+    """Cells that came and went in one layer of the world model."""
+
+    added: list[list[float]] = Field(default=[], description="centres [x, y] that came, m")
+    removed: list[list[float]] = Field(default=[], description="centres [x, y] that went, m")
+
+
+class WorldVersion(BaseModel):
+    """How the world model changed at one model time (recorded at most once a model second)."""
+
+    t: float = Field(description="model seconds")
+    sensed: WorldChange | None = Field(default=None, description="sensed occupancy cells")
+    contacts: WorldChange | None = Field(default=None, description="contact cells")
 
 
 class PlanVersionOut(BaseModel):
@@ -46,18 +70,55 @@ class ReplayOut(BaseModel):
     plans: list[PlanVersionOut] = Field(description="every plan version, oldest first")
     replans: list[ReplanOut] = Field(description="every replan, oldest first")
     events: list[dict[str, Any]] = Field(description="the mission's events (model seconds t)")
+    world: list[WorldVersion] = Field(
+        default=[],
+        description="the world model's changes, oldest first: applying those up to a time "
+        "gives the sensed and contact cells at that time (empty while it runs)",
+    )
+    goals: list[GoalOut] = Field(default=[], description="the goals, each with `added_at`")
+    obstacles: list[KnownObstacleOut] = Field(
+        default=[], description="the known obstacles, each with `added_at`"
+    )
 
 
 @router.get("/missions/{mission_id}/world", response_model=WorldOut, responses=responses(404))
-def get_world(mission_id: MissionId, svc: Svc) -> WorldOut:
-    """The sensed world model of a mission (stored about once a second while it runs)."""
-    state = found(svc, mission_id).state or {}
+def get_world(
+    mission_id: MissionId,
+    svc: Svc,
+    at: Annotated[
+        float | None,
+        Query(
+            ge=0,
+            le=1e6,
+            allow_inf_nan=False,
+            description="a finished mission's world model as it was at this model time, "
+            "seconds (none: as it is now, or as it ended)",
+        ),
+    ] = None,
+) -> WorldOut:
+    """The world model of a mission: while it runs, as stored about once a second; with `at`,
+    as it was then (a finished mission's goals and obstacles are those that had come by
+    then)."""
+    row = found(svc, mission_id)
+    state = row.state or {}
+    sensed, contacts = state.get("sensed", []), state.get("contacts", [])
+    goals, obstacles = current_goals(row), known_obstacles(row)
+    model_time = state.get("model_time", 0.0)
+    if at is not None:
+        changes = svc.store.world_history(mission_id)
+        if changes is not None:  # else only the last stored model exists
+            cells = world_at(changes, at)
+            sensed, contacts, model_time = cells["sensed"], cells["contacts"], min(at, model_time)
+        goals = [g for g in goals if g.added_at <= at]
+        obstacles = [o for o in obstacles if o.added_at <= at]
     return WorldOut(
         mission=mission_id,
-        model_time=state.get("model_time", 0.0),
+        model_time=model_time,
         resolution=state.get("resolution"),
-        sensed=state.get("sensed", []),
-        contacts=state.get("contacts", []),
+        sensed=sensed,
+        contacts=contacts,
+        goals=goals,
+        obstacles=obstacles,
     )
 
 
@@ -83,4 +144,7 @@ def get_replay(mission_id: MissionId, svc: Svc) -> ReplayOut:
         plans=plans,
         replans=plan_of(svc, mission_id).replans,
         events=state.get("events", []),
+        world=[WorldVersion.model_validate(c) for c in svc.store.world_history(mission_id) or []],
+        goals=current_goals(row),
+        obstacles=known_obstacles(row),
     )

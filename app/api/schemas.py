@@ -1,4 +1,5 @@
-"""The API's pydantic schemas (DESIGN §10), separate from the storage models.
+"""The API's pydantic schemas (the shapes of docs/mission-format.md), separate from the storage
+models.
 
 Units: metres for positions and lengths, radians for angles (headings ψ, joint angles),
 model seconds for simulated time, wall milliseconds for planning latency.
@@ -9,7 +10,7 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field, RootModel, model_validator
 
 from app.missions.spec import Coord, GoalSpec, Joint, ObstacleSpec, Pose
 from app.missions.status import MissionStatus
@@ -39,6 +40,35 @@ class GoalOut(BaseModel):
     )
     reached_at: float | None = Field(default=None, description="when reached, model seconds")
     removed: bool = Field(default=False, description="removed by a live update; not pursued")
+    source: Literal["request", "live"] = Field(
+        default="request",
+        description="how it came: in the mission as posted, or by `POST /missions/{id}/goals`",
+    )
+    added_at: float = Field(
+        default=0.0, description="when it came, model seconds (0 for the request's goals)"
+    )
+    removed_at: float | None = Field(
+        default=None, description="when a live update removed it, model seconds"
+    )
+
+
+class KnownObstacleOut(BaseModel):
+    """An obstacle the robot's world model knows from the start or from a live update (hidden
+    obstacles are not listed: the robot has only sensed them, see `/world`)."""
+
+    id: str = Field(
+        description="`request-N` (index N of the posted `obstacles`) or `live-N` (the N-th "
+        "obstacle added live)"
+    )
+    source: Literal["request", "live"] = Field(
+        description="how it came: in the mission as posted, or by `POST /missions/{id}/obstacles`"
+    )
+    added_at: float = Field(description="when it came, model seconds (0 for the request's)")
+    obstacle: dict[str, Any] = Field(
+        description="the obstacle as in a mission's `obstacles` (`type` circle, rectangle or "
+        "polygon; metres, radians); a rectangle added live is listed as the polygon of its "
+        "corners, as the world model holds it"
+    )
 
 
 MISSION_EXAMPLE: dict[str, Any] = {
@@ -54,8 +84,20 @@ MISSION_EXAMPLE: dict[str, Any] = {
         {"status": "succeeded", "at": "2026-01-01T12:00:02Z", "reason": "all goals reached"},
     ],
     "goals": [
-        {"x": -3.0, "y": -3.0, "tolerance": 0.1, "reached": True, "error": 0.03, "reached_at": 91}
+        {
+            "x": -3.0,
+            "y": -3.0,
+            "tolerance": 0.1,
+            "reached": True,
+            "error": 0.03,
+            "reached_at": 91,
+            "removed": False,
+            "source": "request",
+            "added_at": 0.0,
+            "removed_at": None,
+        }
     ],
+    "obstacles": [],
     "pose": {"x": -2.98, "y": -2.99, "psi": -2.3, "joints": [0.0, 0.0, 0.0]},
     "model_time": 91.25,
     "collisions": 0,
@@ -74,7 +116,15 @@ class MissionOut(BaseModel):
     reason: str = Field(description="why it is in this status (the terminal reason at the end)")
     created_at: datetime = Field(description="when it was posted (UTC)")
     transitions: list[TransitionOut] = Field(description="every status change, oldest first")
-    goals: list[GoalOut] = Field(description="the goals in the order posted, with progress")
+    goals: list[GoalOut] = Field(
+        description="the goals in the order posted (their index names them), live ones "
+        "included, with progress"
+    )
+    obstacles: list[KnownObstacleOut] = Field(
+        default=[],
+        description="the known obstacles: those posted known, then those added live, each with "
+        "when and how it came",
+    )
     pose: PoseOut = Field(description="the latest pose (the start pose before it runs)")
     model_time: float = Field(description="simulated time so far, model seconds")
     collisions: int = Field(description="contacts the bumpers reported so far")
@@ -288,11 +338,33 @@ class GoalAdd(BaseModel):
         return GoalSpec(x=self.x, y=self.y, tolerance=self.tolerance)
 
 
-class ObstacleAdd(BaseModel):
-    """A known obstacle added to a running mission's world model (the world itself unchanged)."""
+OBSTACLE_EXAMPLES: dict[str, Any] = {
+    "circle": {
+        "summary": "A circle, as in a mission's `obstacles`",
+        "value": {"type": "circle", "x": 1.0, "y": 0.5, "radius": 0.3},
+    },
+    "rectangle": {
+        "summary": "A rotated rectangle (width along its own x axis, angle in radians)",
+        "value": {"type": "rectangle", "x": 2, "y": -1, "width": 1.5, "height": 0.2, "angle": 0.5},
+    },
+    "polygon": {
+        "summary": "A polygon given by its vertices",
+        "value": {"type": "polygon", "points": [[0, 3], [1, 3], [0.5, 4]]},
+    },
+}
 
-    model_config = ConfigDict(extra="forbid")
-    obstacle: ObstacleSpec = Field(description="circle, rectangle or polygon (metres, radians)")
+
+class ObstacleBody(RootModel[ObstacleSpec]):
+    """The body of `POST /missions/{id}/obstacles`: the obstacle itself, as in a mission's
+    `obstacles` (as `POST /goals` takes the goal itself). The earlier form, the obstacle under
+    `obstacle`, is still taken."""
+
+    @model_validator(mode="before")
+    @classmethod
+    def _unwrap(cls, value: Any) -> Any:
+        if isinstance(value, dict) and set(value) == {"obstacle"}:
+            return value["obstacle"]
+        return value
 
 
 class UpdateOut(BaseModel):

@@ -11,14 +11,14 @@ import json
 from collections.abc import Iterator
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Depends, Path
+from fastapi import APIRouter, Body, Depends, Path
 from fastapi.responses import StreamingResponse
 from pydantic import ValidationError
 
 from app.api.deps import MissionId, Services, Svc, writer
 from app.api.errors import ApiError, responses
 from app.api.missions import found
-from app.api.schemas import GoalAdd, ObstacleAdd, UpdateOut
+from app.api.schemas import OBSTACLE_EXAMPLES, GoalAdd, ObstacleBody, UpdateOut
 from app.missions.spec import MissionSpec
 from app.missions.status import TERMINAL, MissionStatus
 from app.service.messages import AddGoal, AddObstacle, Pause, RemoveGoal, Resume, Update
@@ -95,10 +95,15 @@ def remove_goal(
 
 
 @router.post("/missions/{mission_id}/obstacles", **WRITE, responses=responses(401, 404, 409, 422))
-def add_obstacle(mission_id: MissionId, body: ObstacleAdd, svc: Svc) -> UpdateOut:
-    """Add a known obstacle to the mission's world model; it replans (`obstacle_added`)."""
+def add_obstacle(
+    mission_id: MissionId,
+    body: Annotated[ObstacleBody, Body(openapi_examples=OBSTACLE_EXAMPLES)],
+    svc: Svc,
+) -> UpdateOut:
+    """Add a known obstacle to the mission's world model; it replans (`obstacle_added`). The
+    body is the obstacle as in a mission's `obstacles` (`{"obstacle": {...}}` is taken too)."""
     row = running(svc, mission_id)
-    obstacle = body.obstacle.model_dump() | {"known": True}
+    obstacle = body.root.model_dump() | {"known": True}
     return send(svc, row, AddObstacle(obstacle))
 
 

@@ -1,4 +1,4 @@
-"""A mission as data (DESIGN §10): start, shape, goals, obstacles, events, planner, limits.
+"""A mission as data (docs/mission-format.md): start, shape, goals, obstacles, events, planner, limits.
 
 Validated strictly: finite numbers only, bounded lists, coordinates inside the arena, goals and
 start outside obstacles, unknown fields rejected. The same model backs mission files and

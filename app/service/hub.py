@@ -14,6 +14,18 @@ from typing import Any
 from app.service.frames import EndFrame, StateFrame, StreamFrame
 
 Frame = StreamFrame
+TRAIL_SECONDS = 0.25  # model seconds between a running mission's trail rows at least
+TRAIL_ROWS = 4000  # at most; beyond, every other row goes (the trail stays evenly thinned)
+
+
+def extend_trail(trail: list[list[float]], frame: StateFrame) -> None:
+    """Append a state frame's pose as a trajectory row ``[t, x, y, ψ, φ1, φ2, φ3]``."""
+    if trail and frame.t - trail[-1][0] < TRAIL_SECONDS:
+        return
+    p = frame.pose
+    trail.append([frame.t, p.x, p.y, p.psi, *p.joints])
+    if len(trail) > TRAIL_ROWS:
+        del trail[1:-1:2]
 
 
 class Channel:
@@ -60,6 +72,9 @@ class Hub:
         self.limit = limit
         self.channels: dict[str, set[Channel]] = {}
         self.last_tree: dict[str, dict[str, Any]] = {}  # mission -> its latest tree snapshot
+        # A running mission's path as its state frames told it (the store has the trajectory
+        # only once it ends): a viewer opened midway draws the trail from the start.
+        self.trails: dict[str, list[list[float]]] = {}
 
     def subscribe(self, mission_id: str) -> Channel:
         channel = Channel(self.limit)
@@ -76,8 +91,10 @@ class Hub:
     def publish(self, mission_id: str, frame: Frame) -> None:
         if isinstance(frame, StateFrame):
             self.last_tree[mission_id] = frame.tree
-        elif isinstance(frame, EndFrame):  # the store keeps the last tree from here on
+            extend_trail(self.trails.setdefault(mission_id, []), frame)
+        elif isinstance(frame, EndFrame):  # the store keeps the last tree and the path now
             self.last_tree.pop(mission_id, None)
+            self.trails.pop(mission_id, None)
         for channel in list(self.channels.get(mission_id, ())):
             channel.offer(frame)
 

@@ -62,9 +62,11 @@ class PlanMade:
 
 @dataclass(frozen=True)
 class TrajectoryDone:
-    """The mission's (thinned) trajectory, sent once at the end."""
+    """The mission's (thinned) trajectory and its world model's changes, sent once at the end
+    (``app.service.world_history``)."""
 
     points: list[list[float]]
+    world: list[dict[str, Any]] | None = None
 
 
 @dataclass(frozen=True)

@@ -148,7 +148,7 @@ class Relay:
             if message.version > 1:
                 self.transition(mission_id, MissionStatus.EXECUTING)
         elif isinstance(message, TrajectoryDone):
-            self.store.save_trajectory(mission_id, message.points)
+            self.store.save_trajectory(mission_id, message.points, message.world)
         elif isinstance(message, Ended):
             status, reason = message.status, message.reason
             if status == MissionStatus.CANCELLED and self.shutting_down.is_set():

@@ -43,6 +43,7 @@ from app.service.messages import (
     Update,
     WorkerMessage,
 )
+from app.service.world_history import WorldHistory
 from primitives.library import Library
 from sim.obstacles import obstacle_from_dict
 
@@ -295,6 +296,7 @@ def _run(
     started = time.perf_counter()
     last_state = last_save = 0.0
     versions, events_sent, executing = 0, 0, False
+    history = WorldHistory()  # what the replay shows of the world model at each model time
     paused_since: float | None = None
     period = 1.0 / ws_rate
     while True:
@@ -308,6 +310,7 @@ def _run(
             paused_since = None
         done = runner.step()
         ctx = runner.ctx
+        history.observe(ctx.t, ctx.world)
         for message in news(runner, events_sent, versions):
             queue.put(message)
         events_sent, versions = len(ctx.events), ctx.plan_version
@@ -334,6 +337,7 @@ def _run(
                 cancel.wait(min(ahead, PACE_SLICE))
     # the last state frame: the tree as it ended (its root SUCCESS or FAILURE, not RUNNING)
     queue.put(Publish({"type": "state", **runner.snapshot()}))
-    queue.put(TrajectoryDone(runner.trajectory()))
+    history.record(runner.ctx.t, runner.ctx.world)
+    queue.put(TrajectoryDone(runner.trajectory(), history.changes))
     final = mission_state(runner) | {"tree": runner.snapshot()["tree"]}
     queue.put(Ended(MissionStatus(runner.status), runner.reason, final))

@@ -1,33 +1,39 @@
 // The map: a pan/zoom camera over the arena and the layers drawn on it (world model, truth,
-// goals, trajectory, plan, events, robot, sensor rays, metre scale).
+// goals, trajectory, plan, events, robot, sensor rays, labels, metre scale).
 const L = 0.226, HEAD = 0.055, R = 0.075; // unit length, head length, unit radius (m)
 
 export const STYLE = {
   known: { fill: "#6b6b6b", stroke: "#333" },
+  live: { stroke: "#1d4ed8" }, // a known obstacle added by a live update
   truth: { stroke: "#c0392b" },
   sensed: "rgba(142,68,173,0.75)",
   contact: "#e67e22",
-  goal: "#d08a00", reached: "#2a9d2a",
-  trail: "#1f77b4", plan: "#0a7f8c",
+  goal: "#d08a00", reached: "#2a9d2a", removed: "#9a9a9a",
+  trail: "#1f77b4", plan: "#0a7f8c", current: "#e0a000",
   robot: "rgba(31,119,180,0.55)", head: "#d62728",
   rayHit: "rgba(214,39,40,0.9)", rayFree: "rgba(214,39,40,0.22)",
   events: {
     replan: { color: "#0a7f8c", shape: "diamond", label: "replan" },
-    collision: { color: "#d62728", shape: "cross", label: "contact" },
+    collision: { color: "#d62728", shape: "cross", label: "collision (bumper)" },
     goal_reached: { color: "#2a9d2a", shape: "star", label: "goal reached" },
     deform: { color: "#8e44ad", shape: "triangle", label: "deformation" },
     dropout: { color: "#7f8c8d", shape: "square", label: "sensor dropout" },
   },
 };
 
+const dot = (color, size = 8) => `width:${size}px;height:${size}px;border-radius:50%;background:${color};margin:0 5px`;
 export const LEGEND = [
   ["known obstacle", `background:${STYLE.known.fill}`],
+  ["obstacle added live", `background:${STYLE.known.fill};box-shadow:inset 0 0 0 2px ${STYLE.live.stroke}`],
   ["sensed occupancy", `background:${STYLE.sensed}`],
-  ["contact", `background:${STYLE.contact}`],
+  ["contact cells (bumper)", `background:${STYLE.contact}`],
   ["truth (hidden obstacle)", `border:2px dashed ${STYLE.truth.stroke}`],
-  ["goal / reached", `border:2px solid ${STYLE.goal};border-radius:50%;box-shadow:inset 0 0 0 2px ${STYLE.reached}`],
+  ["goal N (its API index) / reached", `border:2px solid ${STYLE.goal};border-radius:50%;box-shadow:inset 0 0 0 2px ${STYLE.reached}`],
+  ["robot body (4 units)", `background:${STYLE.robot};border-radius:5px`],
+  ["head", dot(STYLE.head)],
   ["trajectory", `border-top:2px solid ${STYLE.trail};height:0`],
-  ["plan (primitive ids)", `border-top:2px dashed ${STYLE.plan};height:0`],
+  ["plan (hover a step for its primitive)", `border-top:2px dashed ${STYLE.plan};height:0`],
+  ["current step", dot(STYLE.current, 10)],
   ["sensor ray: hit / nothing", `border-top:2px solid ${STYLE.rayHit};border-bottom:2px solid ${STYLE.rayFree};height:2px`],
   ...Object.values(STYLE.events).map((e) => [e.label, `color:${e.color};text-align:center;line-height:10px`, e.shape]),
 ];
@@ -40,14 +46,16 @@ export function legendHtml() {
     `<div><i style="${css}">${shape ? SYMBOLS[shape] : ""}</i>${label}</div>`).join("");
 }
 
-/** A camera: world (m) to screen (px), with pan and zoom. */
+/** A camera: world (m) to screen (px), with pan and zoom. A fitted camera (``fitted``) fits
+ * its bounds again when the canvas changes size; one the user panned or zoomed keeps its view. */
 export class Camera {
-  constructor() { this.cx = 0; this.cy = 0; this.scale = 50; this.w = 1; this.h = 1; }
+  constructor() { this.cx = 0; this.cy = 0; this.scale = 50; this.w = 1; this.h = 1; this.bounds = null; this.fitted = false; }
   X(x) { return (x - this.cx) * this.scale + this.w / 2; }
   Y(y) { return this.h / 2 - (y - this.cy) * this.scale; }
   toWorld(px, py) { return [(px - this.w / 2) / this.scale + this.cx, (this.h / 2 - py) / this.scale + this.cy]; }
   resize(canvas) { this.w = canvas.clientWidth || this.w; this.h = canvas.clientHeight || this.h; }
   fit(b, margin = 0.05) {
+    this.bounds = b; this.fitted = true;
     this.cx = (b.xmin + b.xmax) / 2; this.cy = (b.ymin + b.ymax) / 2;
     this.scale = Math.min(this.w / (b.xmax - b.xmin), this.h / (b.ymax - b.ymin)) * (1 - 2 * margin);
   }
@@ -55,13 +63,14 @@ export class Camera {
     const [wx, wy] = this.toWorld(px, py);
     this.scale = Math.min(5000, Math.max(2, this.scale * factor));
     const [nx, ny] = this.toWorld(px, py);
-    this.cx += wx - nx; this.cy += wy - ny;
+    this.cx += wx - nx; this.cy += wy - ny; this.fitted = false;
   }
-  pan(dx, dy) { this.cx -= dx / this.scale; this.cy += dy / this.scale; }
+  pan(dx, dy) { this.cx -= dx / this.scale; this.cy += dy / this.scale; if (dx || dy) this.fitted = false; }
 }
 
-/** Wheel zooms about the cursor, dragging pans, a double-click calls ``onFit``. */
-export function attachControls(canvas, cam, onFit) {
+/** Wheel zooms about the cursor, dragging pans, a double-click calls ``onFit``; ``onHover``
+ * gets the pointer's canvas position (null when it leaves). */
+export function attachControls(canvas, cam, onFit, onHover = () => {}) {
   canvas.addEventListener("wheel", (e) => {
     e.preventDefault();
     cam.zoomAt(e.offsetX, e.offsetY, Math.exp(-e.deltaY * 0.0015));
@@ -69,10 +78,12 @@ export function attachControls(canvas, cam, onFit) {
   let drag = null;
   canvas.addEventListener("pointerdown", (e) => { drag = [e.clientX, e.clientY]; canvas.setPointerCapture(e.pointerId); });
   canvas.addEventListener("pointermove", (e) => {
+    onHover({ x: e.offsetX, y: e.offsetY });
     if (!drag) return;
     cam.pan(e.clientX - drag[0], e.clientY - drag[1]); drag = [e.clientX, e.clientY];
   });
   canvas.addEventListener("pointerup", () => { drag = null; });
+  canvas.addEventListener("pointerleave", () => onHover(null));
   canvas.addEventListener("dblclick", onFit);
 }
 
@@ -82,7 +93,7 @@ function path(ctx, cam, pts, close) {
   if (close) ctx.closePath();
 }
 
-function rect(o) {
+function corners(o) {
   const c = Math.cos(o.angle || 0), s = Math.sin(o.angle || 0);
   return [[-1, -1], [1, -1], [1, 1], [-1, 1]].map(([dx, dy]) => {
     const lx = dx * o.width / 2, ly = dy * o.height / 2;
@@ -90,10 +101,23 @@ function rect(o) {
   });
 }
 
-function obstacle(ctx, cam, o) {
+function outline(ctx, cam, o) {
   if (o.type === "circle") { ctx.beginPath(); ctx.arc(cam.X(o.x), cam.Y(o.y), o.radius * cam.scale, 0, 2 * Math.PI); }
-  else path(ctx, cam, o.type === "polygon" ? o.points : rect(o), true);
+  else path(ctx, cam, o.type === "polygon" ? o.points : corners(o), true);
 }
+
+/** An obstacle's bounding box on screen [x0, y0, x1, y1] (px). */
+function screenBox(cam, o) {
+  if (o.type === "circle") {
+    const r = o.radius * cam.scale;
+    return [cam.X(o.x) - r, cam.Y(o.y) - r, cam.X(o.x) + r, cam.Y(o.y) + r];
+  }
+  const pts = (o.type === "polygon" ? o.points : corners(o)).map(([x, y]) => [cam.X(x), cam.Y(y)]);
+  const xs = pts.map((p) => p[0]), ys = pts.map((p) => p[1]);
+  return [Math.min(...xs), Math.min(...ys), Math.max(...xs), Math.max(...ys)];
+}
+
+const overlaps = (a, b) => a[0] < b[2] && b[0] < a[2] && a[1] < b[3] && b[1] < a[3];
 
 export function marker(ctx, x, y, shape, color, size = 6) {
   ctx.save(); ctx.fillStyle = color; ctx.strokeStyle = color; ctx.lineWidth = 2; ctx.beginPath();
@@ -165,70 +189,149 @@ export function primitiveOf(a) {
   return [a.name, ...(a.args || [])].join(" ");
 }
 
-/** The plan: a dashed line from the robot through each action's target, each labelled with its
- * primitive id (labels that would overlap one already drawn are left out; zoom in to see them). */
-function plan(ctx, cam, actions, from, current, start = 0) {
+/** The plan: a dashed line from the robot through each action's target, a dot per step (the
+ * current one larger). Faded, without dots, once the mission ended. Returns the dots. */
+function planLine(ctx, cam, actions, from, current, start, faded) {
   const pts = actions.slice(start).filter((a) => a.target);
   if (!pts.length) return [];
-  ctx.save(); ctx.strokeStyle = STYLE.plan; ctx.lineWidth = 2; ctx.setLineDash([6, 4]);
-  path(ctx, cam, [[from.x, from.y], ...pts.map((a) => [a.target.x, a.target.y])]); ctx.stroke(); ctx.setLineDash([]);
-  ctx.font = "11px ui-monospace, monospace"; ctx.textBaseline = "middle";
-  const boxes = [], drawn = [];
-  const order = [...pts.keys()].sort((i, j) => (pts[j] === current) - (pts[i] === current));
-  for (const i of order) {
-    const a = pts[i], x = cam.X(a.target.x), y = cam.Y(a.target.y);
-    ctx.fillStyle = a === current ? "#e0a000" : STYLE.plan;
-    ctx.beginPath(); ctx.arc(x, y, a === current ? 5 : 3, 0, 2 * Math.PI); ctx.fill();
-    const text = `${actions.indexOf(a) + 1} ${primitiveOf(a)}`, w = ctx.measureText(text).width + 6;
-    const box = [x + 6, y - 8, x + 6 + w, y + 8];
-    if (boxes.some((b) => box[0] < b[2] && b[0] < box[2] && box[1] < b[3] && b[1] < box[3])) continue;
-    boxes.push(box); drawn.push(text);
-    ctx.fillStyle = "rgba(255,255,255,0.85)"; ctx.fillRect(box[0], box[1], w, 16);
-    ctx.fillStyle = a === current ? "#8a5a00" : STYLE.plan; ctx.fillText(text, box[0] + 3, y);
-  }
+  ctx.save(); ctx.globalAlpha = faded ? 0.3 : 1;
+  ctx.strokeStyle = STYLE.plan; ctx.lineWidth = 2; ctx.setLineDash([6, 4]);
+  path(ctx, cam, [[from.x, from.y], ...pts.map((a) => [a.target.x, a.target.y])]); ctx.stroke();
   ctx.restore();
-  return drawn;
+  if (faded) return [];
+  const dots = [];
+  for (const a of pts) {
+    const x = cam.X(a.target.x), y = cam.Y(a.target.y), now = a === current;
+    ctx.fillStyle = now ? STYLE.current : STYLE.plan;
+    ctx.beginPath(); ctx.arc(x, y, now ? 5 : 3, 0, 2 * Math.PI); ctx.fill();
+    dots.push({ index: actions.indexOf(a), action: a, x, y, current: now });
+  }
+  return dots;
 }
 
-/** Draw everything of ``scene`` on the canvas; returns what was drawn (for tests). */
+/** Where a label of ``w`` × 16 px beside the point (x, y) clears every box in ``avoid`` and
+ * stays on the canvas: the first free place of a ring of candidates, or null. */
+function placeLabel(x, y, w, avoid, width, height) {
+  const h = 16, places = [];
+  for (const d of [8, 20, 36]) {
+    places.push([x + d, y - h / 2], [x - d - w, y - h / 2], [x - w / 2, y - d - h], [x - w / 2, y + d],
+      [x + d, y - d - h], [x - d - w, y + d], [x + d, y + d], [x - d - w, y - d - h]);
+  }
+  for (const [x0, y0] of places) {
+    const box = [x0, y0, x0 + w, y0 + h];
+    if (box[0] < 0 || box[1] < 0 || box[2] > width || box[3] > height) continue;
+    if (!avoid.some((b) => overlaps(box, b))) return box;
+  }
+  return null;
+}
+
+/** Labels of plan steps: the current one, and the one under the pointer. A label never covers
+ * an obstacle (known, added live, sensed, felt, or hidden when the truth is shown), a goal or
+ * another label; where no place is free it is left out (the plan list names every step). */
+function stepLabels(ctx, cam, dots, hover, avoid) {
+  const near = hover ? dots.filter((d) => Math.hypot(d.x - hover.x, d.y - hover.y) < 10) : [];
+  const under = near.sort((a, b) => Math.hypot(a.x - hover.x, a.y - hover.y) - Math.hypot(b.x - hover.x, b.y - hover.y))[0];
+  const chosen = [...dots.filter((d) => d.current), ...(under && !under.current ? [under] : [])];
+  ctx.save(); ctx.font = "11px ui-monospace, monospace"; ctx.textBaseline = "middle";
+  const out = [];
+  for (const d of chosen) {
+    const text = `${d.index + 1} ${primitiveOf(d.action)}`, w = ctx.measureText(text).width + 6;
+    const box = placeLabel(d.x, d.y, w, avoid, cam.w, cam.h);
+    if (!box) continue;
+    avoid.push(box); out.push({ text, box, step: d.index + 1, hovered: d === under });
+    const nx = Math.max(box[0], Math.min(d.x, box[2])), ny = Math.max(box[1], Math.min(d.y, box[3]));
+    if (Math.hypot(nx - d.x, ny - d.y) > 9) { // a leader from the dot to a label set apart
+      ctx.strokeStyle = d.current ? STYLE.current : STYLE.plan; ctx.lineWidth = 1;
+      ctx.beginPath(); ctx.moveTo(d.x, d.y); ctx.lineTo(nx, ny); ctx.stroke();
+    }
+    ctx.fillStyle = "rgba(255,255,255,0.92)"; ctx.fillRect(box[0], box[1], w, 16);
+    ctx.strokeStyle = d.current ? STYLE.current : STYLE.plan; ctx.lineWidth = 1; ctx.strokeRect(box[0], box[1], w, 16);
+    ctx.fillStyle = d.current ? "#8a5a00" : STYLE.plan; ctx.fillText(text, box[0] + 3, box[1] + 8);
+  }
+  ctx.restore();
+  return out;
+}
+
+/** The goals above everything but labels, each with a white halo and its API index. */
+function goalMarks(ctx, cam, goals) {
+  const out = [];
+  goals.forEach((g, index) => {
+    if (!g) return;
+    const x = cam.X(g.x), y = cam.Y(g.y), r = Math.max(g.tolerance * cam.scale, 6);
+    const color = g.removed ? STYLE.removed : g.reached ? STYLE.reached : STYLE.goal;
+    ctx.save();
+    ctx.beginPath(); ctx.arc(x, y, r, 0, 2 * Math.PI);
+    ctx.strokeStyle = "white"; ctx.lineWidth = 5; ctx.stroke();
+    ctx.setLineDash(g.removed ? [3, 3] : []); ctx.strokeStyle = color; ctx.lineWidth = 2.5; ctx.stroke();
+    ctx.setLineDash([]);
+    ctx.beginPath(); ctx.arc(x, y, 2.5, 0, 2 * Math.PI); ctx.fillStyle = color; ctx.fill();
+    const text = `goal ${index}${g.removed ? " (removed)" : ""}`;
+    ctx.font = "bold 11px system-ui"; ctx.lineWidth = 3; ctx.strokeStyle = "white";
+    ctx.strokeText(text, x + r + 3, y - r - 2); ctx.fillText(text, x + r + 3, y - r - 2);
+    const w = ctx.measureText(text).width;
+    ctx.restore();
+    out.push({ index, x: g.x, y: g.y, reached: !!g.reached, removed: !!g.removed, box: [x - r, Math.min(y - r, y - r - 14), Math.max(x + r, x + r + 3 + w), y + r] });
+  });
+  return out;
+}
+
+/** Draw everything of ``scene`` on the canvas; returns what was drawn (for tests, as
+ * ``window.viewer.drawn``: label boxes, obstacle boxes, goals, ... in canvas pixels). */
 export function drawScene(canvas, cam, scene) {
   const ctx = canvas.getContext("2d"), dpr = window.devicePixelRatio || 1;
   const w = canvas.clientWidth, h = canvas.clientHeight;
   if (canvas.width !== Math.round(w * dpr) || canvas.height !== Math.round(h * dpr)) {
     canvas.width = Math.round(w * dpr); canvas.height = Math.round(h * dpr);
   }
+  const resized = w !== cam.w || h !== cam.h;
   cam.w = w; cam.h = h;
+  if (resized && cam.fitted && cam.bounds) cam.fit(cam.bounds); // the whole arena stays in view
   ctx.setTransform(dpr, 0, 0, dpr, 0, 0); ctx.clearRect(0, 0, w, h);
-  const out = { labels: [], scale: "", events: 0, rays: 0 };
+  const out = {
+    labels: [], labelBoxes: [], obstacleBoxes: [], goals: [], obstacles: [], dots: [],
+    planFaded: false, scale: "", events: 0, rays: 0, sensed: 0, view: { w, h, scale: cam.scale, fitted: cam.fitted },
+  };
   const m = scene.mission;
   if (!m) return out;
   const b = m.request.bounds;
   ctx.strokeStyle = "#999"; ctx.lineWidth = 1;
   ctx.strokeRect(cam.X(b.xmin), cam.Y(b.ymax), (b.xmax - b.xmin) * cam.scale, (b.ymax - b.ymin) * cam.scale);
-  for (const o of m.request.obstacles || []) {
-    if (!o.known) continue;
-    obstacle(ctx, cam, o); ctx.fillStyle = STYLE.known.fill; ctx.fill(); ctx.strokeStyle = STYLE.known.stroke; ctx.stroke();
+  const onScreen = (box) => box[2] >= 0 && box[0] <= w && box[3] >= 0 && box[1] <= h;
+  for (const known of scene.obstacles || []) {
+    const o = known.obstacle;
+    outline(ctx, cam, o); ctx.fillStyle = STYLE.known.fill; ctx.fill();
+    ctx.strokeStyle = known.source === "live" ? STYLE.live.stroke : STYLE.known.stroke;
+    ctx.lineWidth = known.source === "live" ? 2.5 : 1; ctx.stroke();
+    out.obstacles.push(known.id);
+    out.obstacleBoxes.push({ id: known.id, box: screenBox(cam, o) });
   }
   const cell = (scene.world.resolution || 0.05) * cam.scale;
-  ctx.fillStyle = STYLE.sensed;
   const inside = ([x, y]) => x >= b.xmin && x <= b.xmax && y >= b.ymin && y <= b.ymax;
-  for (const [x, y] of scene.world.sensed.filter(inside)) ctx.fillRect(cam.X(x) - cell / 2, cam.Y(y) - cell / 2, cell, cell);
-  for (const [x, y] of scene.world.contacts) marker(ctx, cam.X(x), cam.Y(y), "square", STYLE.contact, Math.max(2, cell / 2));
+  const cellBox = ([x, y]) => [cam.X(x) - cell / 2, cam.Y(y) - cell / 2, cam.X(x) + cell / 2, cam.Y(y) + cell / 2];
+  ctx.fillStyle = STYLE.sensed;
+  for (const c of scene.world.sensed.filter(inside)) {
+    const box = cellBox(c); ctx.fillRect(box[0], box[1], cell, cell); out.sensed++;
+    if (onScreen(box)) out.obstacleBoxes.push({ id: "sensed", box });
+  }
+  for (const c of scene.world.contacts) {
+    marker(ctx, cam.X(c[0]), cam.Y(c[1]), "square", STYLE.contact, Math.max(2, cell / 2));
+    out.obstacleBoxes.push({ id: "contact", box: cellBox(c) });
+  }
   if (scene.truth) {
     ctx.save(); ctx.setLineDash([5, 4]); ctx.lineWidth = 2; ctx.strokeStyle = STYLE.truth.stroke;
-    for (const o of m.request.obstacles || []) if (!o.known) { obstacle(ctx, cam, o); ctx.stroke(); }
+    (m.request.obstacles || []).forEach((o, i) => {
+      if (o.known) return;
+      outline(ctx, cam, o); ctx.stroke(); out.obstacleBoxes.push({ id: `hidden-${i}`, box: screenBox(cam, o) });
+    });
     ctx.restore();
   }
-  (m.goals || []).forEach((g, i) => {
-    ctx.beginPath(); ctx.arc(cam.X(g.x), cam.Y(g.y), Math.max(g.tolerance * cam.scale, 6), 0, 2 * Math.PI);
-    ctx.strokeStyle = g.reached ? STYLE.reached : STYLE.goal; ctx.lineWidth = 2; ctx.stroke();
-    ctx.fillStyle = ctx.strokeStyle; ctx.font = "11px system-ui"; ctx.fillText(`G${i + 1}`, cam.X(g.x) + 8, cam.Y(g.y) - 8);
-  });
   if (scene.trail.length) {
     ctx.strokeStyle = STYLE.trail; ctx.lineWidth = 2; path(ctx, cam, scene.trail.map((r) => [r[1], r[2]])); ctx.stroke();
   }
   const pose = scene.pose || m.pose;
-  if (pose) out.labels = plan(ctx, cam, scene.plan, scene.planFrom || pose, scene.current, scene.planStart || 0);
+  const dots = pose ? planLine(ctx, cam, scene.plan, scene.planFrom || pose, scene.current, scene.planStart || 0, scene.ended) : [];
+  out.dots = dots.map((d) => ({ step: d.index + 1, x: d.x, y: d.y, current: d.current }));
+  out.planFaded = !!scene.ended && scene.plan.length > 0;
   for (const e of scene.events) {
     const st = STYLE.events[e.kind];
     if (!st || e.x === undefined) continue;
@@ -236,6 +339,10 @@ export function drawScene(canvas, cam, scene) {
   }
   if (pose) robot(ctx, cam, pose);
   if (scene.rays) { rays(ctx, cam, scene.rays); out.rays = scene.rays.length; }
+  out.goals = goalMarks(ctx, cam, scene.goals || []);
+  const avoid = [...out.obstacleBoxes.map((o) => o.box), ...out.goals.map((g) => g.box)];
+  out.labelBoxes = stepLabels(ctx, cam, dots, scene.hover, avoid);
+  out.labels = out.labelBoxes.map((l) => l.text);
   out.scale = scaleBar(ctx, cam);
   return out;
 }

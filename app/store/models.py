@@ -94,6 +94,8 @@ class TrajectoryRow(Base):
     )
     points: Mapped[list[list[float]]] = mapped_column(JSON)
     points_ref: Mapped[str | None] = mapped_column(String(64), nullable=True)
+    # The world model's changes over model time (app.service.world_history), for the replay.
+    world_ref: Mapped[str | None] = mapped_column(String(64), nullable=True)
 
 
 class BlobRow(Base):

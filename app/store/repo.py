@@ -300,12 +300,23 @@ class Store:
                     row.old, row.new = plans["old"], plans["new"]
             return rows
 
-    def save_trajectory(self, mission_id: str, points: list[list[float]]) -> None:
+    def save_trajectory(
+        self,
+        mission_id: str,
+        points: list[list[float]],
+        world: list[dict[str, Any]] | None = None,
+    ) -> None:
+        """The trajectory and, if given, the world model's changes over model time."""
         with self.sessions() as s:
             blob = blobs.prepare_json(s, points)
+            world_blob = None if world is None else blobs.prepare_json(s, world)
         with self._writing(), self.sessions() as s:
             ref = blobs.put(s, blob)
-            s.merge(TrajectoryRow(mission_id=mission_id, points=[], points_ref=ref))
+            world_ref = None if world_blob is None else blobs.put(s, world_blob)
+            row = TrajectoryRow(
+                mission_id=mission_id, points=[], points_ref=ref, world_ref=world_ref
+            )
+            s.merge(row)
             s.commit()
 
     def trajectory(self, mission_id: str) -> list[list[float]] | None:
@@ -317,6 +328,16 @@ class Store:
                 blobs.get_json(s, row.points_ref) if row.points_ref else list(row.points)
             )
             return points
+
+    def world_history(self, mission_id: str) -> list[dict[str, Any]] | None:
+        """The world model's changes over the mission's model time (None: not stored, e.g. a
+        mission still running or stored before histories were kept)."""
+        with self.sessions() as s:
+            row = s.get(TrajectoryRow, mission_id)
+            if row is None or not row.world_ref:
+                return None
+            changes: list[dict[str, Any]] = blobs.get_json(s, row.world_ref)
+            return changes
 
     def prune(self, before: datetime) -> int:
         """Delete missions that ended before ``before`` (with everything of theirs) and the
@@ -338,6 +359,7 @@ class Store:
                 PlanRow.steps_ref,
                 ReplanRow.plans_ref,
                 TrajectoryRow.points_ref,
+                TrajectoryRow.world_ref,
             )
             # NULLs left out: NOT IN over a set with a NULL matches nothing
             used = union(*(select(ref).where(ref.is_not(None)) for ref in refs))

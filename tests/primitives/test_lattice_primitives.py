@@ -138,7 +138,7 @@ def test_pose_task_costs_centroid_error_plus_weighted_turn_error() -> None:
     space = ParameterSpace.for_shape("straight")
     task = PoseTask((0.0, 0.0, 0.1), space, config=RolloutConfig(1.0, 0.05))
     assert task.costs(np.zeros((1, 4)))[0] == pytest.approx(0.1)  # standing still: 0.1 rad off
-    spin = np.array([[-1.0, -1 / 3, 1 / 3, 1.0]])  # kinematics.md §7: spin about the middle
+    spin = np.array([[-1.0, -1 / 3, 1 / 3, 1.0]])  # docs/robot-model.md: spin about the middle
     motion = task.motions(spin)[0]
     assert math.hypot(*motion[:2]) < 1e-3 and abs(motion[2]) > 0.1
     with pytest.raises(ValueError, match="reference"):

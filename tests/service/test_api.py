@@ -1,4 +1,4 @@
-"""The API through TestClient (lifespan on): what clients rely on (DESIGN §10)."""
+"""The API through TestClient (lifespan on): what clients rely on (docs/mission-format.md)."""
 
 from __future__ import annotations
 

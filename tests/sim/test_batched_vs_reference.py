@@ -1,4 +1,4 @@
-"""The batched simulator equals the scalar reference (kinematics.md §8) to 1e-9."""
+"""The batched simulator equals the scalar reference (sim/reference.py, docs/robot-model.md) to 1e-9."""
 
 import numpy as np
 from hypothesis import given, settings

@@ -1,4 +1,4 @@
-"""The paper's published parameter sets land where kinematics.md §6 says they do."""
+"""The paper's published parameter sets land where docs/robot-model.md says they do."""
 
 import numpy as np
 import pytest
@@ -23,7 +23,7 @@ def test_published_sets_reach_their_goals(name: str, tolerance: float) -> None:
 
 def test_exp3_is_pinned_where_it_lands() -> None:
     # Exp3's published inputs are within 0.14 of Fig. 13 Set 1's, whose goal (-1, 2) lies 5 m from
-    # Exp3's (-1, -3): no convention reproduces both (kinematics.md §6), so Exp3's goal or inputs
+    # Exp3's (-1, -3): no convention reproduces both (docs/robot-model.md), so Exp3's goal or inputs
     # are probably misprinted. We pin where the published inputs actually take the robot.
     end = rollout(PAPER_CASES["exp3"].control()).end[0]
     assert end[:2] == pytest.approx((-0.746, 1.878), abs=0.01)
@@ -40,5 +40,5 @@ def test_step_size_barely_matters() -> None:
 def test_complete_joint_mode_changes_only_the_moving_joints() -> None:
     complete = RolloutConfig(dt=0.01, joint_mode="complete")
     assert end_error("exp1", complete) == pytest.approx(end_error("exp1", RolloutConfig(dt=0.01)))
-    # kinematics.md §4: Exp4 moves from 0.07 m to 0.36 m off when joint rates are included.
+    # docs/robot-model.md ("Joint motion"): Exp4 moves from 0.07 m to 0.36 m off when joint rates are included.
     assert end_error("exp4", complete) == pytest.approx(0.36, abs=0.02)

@@ -39,7 +39,7 @@ def test_fighting_screws_do_not_move_a_straight_body() -> None:
     ],
 )
 def test_straight_body_is_omnidirectional(theta, direction) -> None:
-    # kinematics.md §7: 7.5 m per rollout forward, backward and sideways.
+    # docs/robot-model.md ("Primitive directions"): 7.5 m per rollout forward, backward and sideways.
     end = rollout(FixedShape.of(theta, [0, 0, 0])).end[0]
     np.testing.assert_allclose(end[:2], 7.5 * np.array(direction), atol=1e-9)
     assert end[2] == pytest.approx(0.0, abs=1e-12)
@@ -60,7 +60,7 @@ def test_states_stay_finite_within_limits(theta, phi, phases) -> None:
 @settings(max_examples=60, deadline=None)
 @given(theta4, st.tuples(st.floats(-1, 1), st.floats(-1, 1), st.floats(-1, 1)))
 def test_speed_is_bounded_within_the_learning_clamp(theta, phi) -> None:
-    # Inside ±1 rad, σ_min/σ_max of A_b stays >= 0.054 (kinematics.md §3), so |v| stays small.
+    # Inside ±1 rad, σ_min/σ_max of A_b stays >= 0.054 (docs/robot-model.md, "Solving"), so |v| stays small.
     # Beyond it the least-squares speed can blow up near singular shapes such as (0, 1.5, -1.5).
     states = rollout(FixedShape.of(theta, phi), config=RolloutConfig(duration=10)).states[0]
     assert np.all(np.linalg.norm(np.diff(states[:, :2], axis=0), axis=-1) < 0.5)

@@ -1,0 +1,62 @@
+"""A mission's current goals and known obstacles, each with when and how it came.
+
+Built from what the store already holds: the request as posted, and the goals and events the
+worker last saved with the mission's state (``update`` events for live additions and removals).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from app.api.schemas import GoalOut, KnownObstacleOut
+from app.store.models import MissionRow
+
+
+def updates(row: MissionRow, kind: str) -> list[dict[str, Any]]:
+    """The mission's accepted live updates of one kind (``add_goal`` ...), oldest first."""
+    events: list[dict[str, Any]] = (row.state or {}).get("events") or []
+    return [e for e in events if e.get("kind") == "update" and e.get("update") == kind]
+
+
+def current_goals(row: MissionRow) -> list[GoalOut]:
+    """The goals by index: those posted, then those added live, with progress as last saved."""
+    posted: list[dict[str, Any]] = row.request.get("goals", [])
+    saved: list[dict[str, Any]] = (row.state or {}).get("goals") or []
+    goals = saved or [
+        {"x": g["x"], "y": g["y"], "tolerance": g.get("tolerance", 0.1)} for g in posted
+    ]
+    added = {int(e["detail"]["goal"]): float(e["t"]) for e in updates(row, "add_goal")}
+    removed = {int(e["detail"]["goal"]): float(e["t"]) for e in updates(row, "remove_goal")}
+    out = []
+    for index, goal in enumerate(goals):
+        live = index >= len(posted)
+        out.append(
+            GoalOut.model_validate(
+                goal
+                | {
+                    "source": "live" if live else "request",
+                    "added_at": added.get(index, 0.0) if live else 0.0,
+                    "removed_at": removed.get(index),
+                }
+            )
+        )
+    return out
+
+
+def known_obstacles(row: MissionRow) -> list[KnownObstacleOut]:
+    """The obstacles the world model knows: those posted known, then those added live."""
+    out = [
+        KnownObstacleOut(id=f"request-{i}", source="request", added_at=0.0, obstacle=o)
+        for i, o in enumerate(row.request.get("obstacles", []))
+        if o.get("known", True)
+    ]
+    for n, event in enumerate(updates(row, "add_obstacle")):
+        out.append(
+            KnownObstacleOut(
+                id=f"live-{n}",
+                source="live",
+                added_at=float(event["t"]),
+                obstacle=dict(event["detail"]["obstacle"]),
+            )
+        )
+    return out

@@ -1,0 +1,86 @@
+"""The sensed world model over a mission's model time, as the changes between its versions.
+
+A replay shows the world model as it was at the slider's time, not as it ended: the worker
+records, at most once per model second and only when the model changed, which sensed and
+contact cells came and went since the previous record (the cell centres of
+``WorldModel.to_dict``, the same the API's ``/world`` lists). A mission's history is a few
+hundred small changes; it is sent with the trajectory at the end and stored beside it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Protocol
+
+RECORD_SECONDS = 1.0  # model seconds between records at most: the replay's resolution
+LAYERS = {"sensed": "sensed", "contacts": "contact"}  # change key -> to_dict key
+
+Cell = tuple[float, float]
+
+
+class WorldView(Protocol):
+    """What the history reads of a world model: versions that change with its layers
+    (``version``, ``soft_version``; optional), and its cells as ``to_dict`` lists them."""
+
+    def to_dict(self) -> dict[str, Any]: ...
+
+
+@dataclass
+class WorldHistory:
+    """Changes of the sensed and contact cells, each ``{"t", "sensed": {"added", "removed"},
+    "contacts": {"added", "removed"}}`` with cell centres ``[x, y]`` in metres."""
+
+    every: float = RECORD_SECONDS
+    changes: list[dict[str, Any]] = field(default_factory=list)
+    _cells: dict[str, set[Cell]] = field(default_factory=lambda: {k: set() for k in LAYERS})
+    _version: object = None
+    _t: float = float("-inf")
+
+    def observe(self, t: float, world: WorldView) -> None:
+        """Record the model at model time ``t`` if it changed and ``every`` has passed."""
+        version = versions(world)
+        if t - self._t < self.every or (version is not None and version == self._version):
+            return
+        self.record(t, world)
+
+    def record(self, t: float, world: WorldView) -> None:
+        """Record the model at model time ``t`` now (a change only if cells came or went)."""
+        self._t, self._version = t, versions(world)
+        listed = world.to_dict()
+        change: dict[str, Any] = {"t": round(t, 3)}
+        for key, source in LAYERS.items():
+            now = {(float(x), float(y)) for x, y in listed.get(source) or []}
+            before = self._cells[key]
+            added, removed = sorted(now - before), sorted(before - now)
+            if added or removed:
+                change[key] = {
+                    "added": [list(c) for c in added],
+                    "removed": [list(c) for c in removed],
+                }
+            self._cells[key] = now
+        if len(change) > 1:
+            self.changes.append(change)
+
+
+def versions(world: WorldView) -> object:
+    """What changes whenever a layer does (None: the model keeps no versions; every record
+    then reads it)."""
+    kept = tuple(getattr(world, name, None) for name in ("version", "soft_version"))
+    return None if kept == (None, None) else kept
+
+
+def world_at(changes: list[dict[str, Any]], t: float) -> dict[str, list[list[float]]]:
+    """The sensed and contact cells at model time ``t``: every change up to ``t`` applied."""
+    cells: dict[str, dict[Cell, None]] = {k: {} for k in LAYERS}  # ordered sets
+    for change in changes:
+        if float(change["t"]) > t:
+            break
+        for key in LAYERS:
+            layer = change.get(key)
+            if layer is None:
+                continue
+            for x, y in layer.get("removed", []):
+                cells[key].pop((x, y), None)
+            for x, y in layer.get("added", []):
+                cells[key][(x, y)] = None
+    return {key: [[x, y] for x, y in found] for key, found in cells.items()}
