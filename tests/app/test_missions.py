@@ -102,7 +102,9 @@ def test_tree_snapshots_are_json_with_names_and_statuses() -> None:
         "INVALID",
     )
     names = json.dumps(tree)
-    for part in ("sense", "guard: body shape", "guard: plan holds", "execute plan", "replan"):
+    for part in ("sense", "guard: body shape", "guard: plan holds", '"plan"', "execute plan"):
+        assert part in names
+    for part in ("navigate with recovery", "RecoveryNode", "back off", "spin to sense"):
         assert part in names
     assert first["action"].startswith("(move") and first["pose"]["x"] <= 0.1
 

@@ -1,25 +1,30 @@
-"""The plan guard reports the first of the next moves whose swept footprint the world model now
-blocks, as checking the moves one by one would."""
+"""The plan guard reports the first of the next moves whose swept footprint the lethal layer now
+blocks, as checking the moves one by one would; soft evidence (a contact) never breaks a plan."""
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 import pytest
 
 from app.executor.runner import MissionRunner
 from app.missions.spec import MissionSpec
-from domain.navigation_strategy import LOOKAHEAD
+from domain.navigation import NavigationStrategy
 from domain.triggers import PathBlocked
+from domain.world import RangeObservation
 from primitives.library import load_bundled
 
 LIB = load_bundled()
 
 
-def first_blocked_one_by_one(strategy, table) -> tuple[str, tuple[float, float]] | None:
+def first_blocked_one_by_one(strategy: NavigationStrategy, world) -> tuple[str, tuple] | None:
     """The reference: each move of the lookahead checked alone, in plan order."""
-    plan = strategy.plan
+    plan, table = strategy.plan, strategy.table
+    assert plan is not None and table is not None
     first = strategy.index + (1 if strategy.running is not None else 0)
-    for n, action in enumerate(plan.actions[first : first + LOOKAHEAD], start=first):
+    lookahead = strategy.settings.follow.lookahead
+    for n, action in enumerate(plan.actions[first : first + lookahead], start=first):
         if action.name != "move" or action.source is None or action.motion is None or n == 0:
             continue
         i, j, k = action.source
@@ -28,30 +33,55 @@ def first_blocked_one_by_one(strategy, table) -> tuple[str, tuple[float, float]]
         lo = int(seg[action.motion])
         hi = int(seg[action.motion + 1]) if action.motion + 1 < len(seg) else len(table.points[k])
         need = table.needs[k][lo:hi] + strategy.settings.margin
-        if not np.all(strategy.clearance(centre + table.points[k][lo:hi]) >= need):
+        if not np.all(world.clearance_at(centre + table.points[k][lo:hi]) >= need):
             return action.pddl, (round(float(centre[0]), 3), round(float(centre[1]), 3))
     return None
 
 
-@pytest.mark.parametrize("pick", [1, 2, 4, 6])
-def test_the_first_blocked_move_is_reported(pick: int) -> None:
+def planned_runner() -> MissionRunner:
     spec = MissionSpec.model_validate(
         {"goals": [{"x": 3, "y": 0}], "bounds": {"xmin": -5, "xmax": 5, "ymin": -5, "ymax": 5}}
     )
     runner = MissionRunner(spec, LIB)
     while not runner.ctx.have_plan:
         assert not runner.step()
+    return runner
+
+
+@pytest.mark.parametrize("pick", [1, 2, 4, 6])
+def test_the_first_blocked_move_is_reported(pick: int) -> None:
+    runner = planned_runner()
     ctx = runner.ctx
     strategy = ctx.strategy
-    plan, table = strategy.plan, strategy.table
+    assert isinstance(strategy, NavigationStrategy) and strategy.plan is not None
     situation = ctx.situation()
     assert strategy.broken(situation) is None  # nothing in the way: the guard is quiet
-    moves = [a for a in plan.actions[strategy.index + 1 :] if a.name == "move"]
+    moves = [a for a in strategy.plan.actions[strategy.index + 1 :] if a.name == "move"]
     assert len(moves) > pick
-    x, y, _ = moves[pick].target  # a contact where a later move ends
-    ctx.world.add_contact((x, y))
-    want = first_blocked_one_by_one(strategy, table)
-    got = strategy.broken(situation)
+    # Something sensed where the body's far end lies after a later move (not under the body
+    # now: the cells it lies over are known free).
+    x, y, psi = moves[pick].target
+    ex, ey = x + 0.95 * math.cos(psi), y + 0.95 * math.sin(psi)
+    for _ in range(3):
+        ctx.world.integrate([RangeObservation((ex, ey + 0.5), -math.pi / 2, 0.0, 1.0, 0.5, True)])
+    assert ctx.world.sensed_occupied().any()
+    want = first_blocked_one_by_one(strategy, ctx.world)
+    got = strategy.broken(ctx.situation())
     assert want is not None and isinstance(got, PathBlocked)
     assert (got.action, got.at) == want
-    assert strategy.broken(situation) is None  # checked once per model version
+    assert strategy.broken(ctx.situation()) is None  # checked once per model version
+
+
+def test_contact_evidence_on_the_path_never_breaks_the_plan() -> None:
+    runner = planned_runner()
+    ctx = runner.ctx
+    strategy = ctx.strategy
+    assert isinstance(strategy, NavigationStrategy) and strategy.plan is not None
+    moves = [a for a in strategy.plan.actions if a.name == "move"]
+    version = ctx.world.version
+    for _ in range(5):  # a body lying across the plan, touched on its side again and again
+        x, y, _ = moves[3].target
+        ctx.world.add_contact((x, y - 0.3, math.pi / 2), (0.0, 0.0, 0.0), 2, "left", ctx.t)
+    assert ctx.world.evidence().any() and ctx.world.version == version
+    assert strategy.broken(ctx.situation()) is None
+    assert first_blocked_one_by_one(strategy, ctx.world) is None

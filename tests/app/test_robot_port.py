@@ -9,7 +9,7 @@ import sim.simulator
 from app.executor.robot import ContactReading, Observation, SimRobot, sim_robot
 from app.executor.runner import MissionRunner
 from app.missions.spec import MissionSpec
-from domain.worldmodel import RangeObservation
+from domain.world import RangeObservation
 from primitives.library import load_bundled
 from sim.controls import Control
 from sim.robot import DEFAULT_GEOMETRY, RobotGeometry
@@ -89,10 +89,18 @@ def test_the_executor_runs_on_a_fake_robot_without_a_simulator(no_simulator) -> 
     result = runner.run()
     assert result.status == "succeeded", result.reason
     assert result.goals[0].error is not None and result.goals[0].error <= 0.1
-    # the scripted bump became a contact in the world model and a replan triggered by it
+    # the scripted bump became contact evidence (soft), a back-off and a replan triggered by it
     assert result.collisions == 1
-    assert any(r.trigger == "contact" and r.detail["part"] == 3 for r in result.replans)
-    assert runner.ctx.world.contact_occupied().any()
+    collisions = [e for e in result.events if e["kind"] == "collision"]
+    assert len(collisions) == 1 and (collisions[0]["part"], collisions[0]["side"]) == (3, "left")
+    recoveries = [e for e in result.events if e["kind"] == "recovery"]
+    assert recoveries and recoveries[0]["recovery"] == "back off"
+    assert recoveries[0]["because"] == "part 3 touched something on its left side"
+    # ... and the plan is made again from where the back-off left the body, saying why
+    replan = next(r for r in result.replans if r.trigger != "initial")
+    assert replan.trigger == "recovered" and replan.detail["recovery"] == "back off"
+    assert "part 3" in replan.detail["because"] and replan.status == "solved"
+    assert runner.ctx.world.evidence().any()
     assert robot.controls  # it drove the robot through the port only
 
 

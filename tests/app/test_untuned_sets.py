@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from app.missions.spec import DropoutEvent, MissionSpec
-from domain.lattice_distances import geodesic
+from domain.navigation.search.heuristic import weighted_geodesic
 from tests.app import test_hard_missions as hard
 
 EXAMPLES = Path(__file__).parents[2] / "examples"
@@ -120,8 +120,9 @@ def way(path: Path, radius: float) -> float:
     ok = hard.free(hard.world(s), points, radius).reshape(gx.shape)
     cell = [int((s.start.x - b.xmin) / res), int((s.start.y - b.ymin) / res)]
     goal = s.goals[0]
+    steps = np.ones(ok.shape)  # every step its length: an 8-connected shortest way
     return float(
-        geodesic(ok, [(cell[0], cell[1])], res)[
+        weighted_geodesic(ok, steps, [(cell[0], cell[1])], res)[
             int((goal.x - b.xmin) / res), int((goal.y - b.ymin) / res)
         ]
     )

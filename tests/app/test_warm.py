@@ -9,11 +9,12 @@ from collections.abc import Iterator
 import pytest
 
 from app.executor import warm
-from app.executor.runner import MissionRunner
+from app.executor.robot import head_sensors
+from app.executor.runner import MissionRunner, navigation_settings
 from app.missions.spec import MissionSpec
-from domain import lattice, lattice_states
-from domain.lattice_planner import LatticePlanner
-from domain.navigation_strategy import NavigationStrategy, held_joints
+from domain.navigation import HeadView, NavigationStrategy, Planner, held_joints, warm_tables
+from domain.navigation.lattice import motions
+from domain.navigation.lattice import states as lattice_states
 from primitives.library import load_bundled
 from primitives.shapes import SHAPES
 from sim.world import Bounds
@@ -46,21 +47,23 @@ def test_a_failing_warm_up_is_logged_not_raised(
 def test_after_the_warm_up_every_shape_s_table_is_at_hand(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """A reshape in a worker's first mission reads another shape's table: made in the warm-up."""
+    """A reshape in a worker's first mission reads another shape's table: made in the warm-up,
+    for the view and settings a mission's strategy asks with."""
     library = load_bundled()
-    monkeypatch.setattr(lattice, "_TABLES", {})
+    monkeypatch.setattr(motions, "_TABLES", {})
     warm.warm_up(library)
-    made = {(key[0], key[1], key[2]) for key in lattice._TABLES}
-    settings = lattice.LatticeSettings(
-        margin=MissionSpec.model_validate(warm.WARM_UP).planner.margin
-    )
+    made = {(key[0], key[1], key[2]) for key in motions._TABLES}
+    spec = MissionSpec.model_validate(warm.WARM_UP)
+    settings = navigation_settings(spec)
+    view = HeadView.of(head_sensors(spec))
     for shape in library.lattice_shapes():
         joints = held_joints(SHAPES[shape].joints)
         assert (id(library), shape, joints) in made
-        before = len(lattice._TABLES)
-        planner = LatticePlanner(Bounds(-1.0, 1.0, -1.0, 1.0), settings)
-        NavigationStrategy(library, planner).table_for(shape, joints)
-        assert len(lattice._TABLES) == before  # the strategy finds it: no new table
+        before = len(motions._TABLES)
+        planner = Planner(Bounds(-1.0, 1.0, -1.0, 1.0), settings)
+        assert NavigationStrategy(library, planner, view).table_for(shape, joints) is not None
+        assert len(motions._TABLES) == before  # the strategy finds it: no new table
+    assert warm_tables(library, settings, view) == len(library.lattice_shapes())
 
 
 def test_after_the_warm_up_what_the_process_holds_is_out_of_the_collector_s_way() -> None:

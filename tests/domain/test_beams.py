@@ -7,9 +7,8 @@ import math
 import numpy as np
 import pytest
 
-from domain.beams import arc_cells, hit_points, sector_points, swept_cells
-from domain.grid import Grid
-from domain.observation import RangeObservation
+from domain.world import Grid, RangeObservation
+from domain.world.sensed.beams import arc_cells, hit_points, sector_points, swept_cells
 from sim.world import Bounds
 
 

@@ -1,25 +1,26 @@
-"""A cancel ends planning at once: no other shape is tried, no problem written for it, and a
-grounding of the whole lattice does not hold the cancel up in the cycle collector."""
+"""A cancel ends planning: before the search, in the middle of it (compiled or pyperplan's),
+inside a local repair; the planner answers ``Failure("cancelled")`` and keeps no plan, the
+strategy reports it and writes no problem; and a grounding of the whole lattice does not hold
+the cancel up in the cycle collector."""
 
 from __future__ import annotations
 
 import gc
+import math
 import threading
 from collections.abc import Iterator
 
 import pytest
 
 from domain.goal_order import LegGoal
-from domain.lattice import LatticeSettings
-from domain.lattice_planner import LatticePlanner
-from domain.lattice_states import FREEZE_AFTER, no_cycle_collection
-from domain.navigation_strategy import NavigationStrategy
+from domain.navigation import Failure, NavigationStrategy, Plan, Planner, PlanRequest
+from domain.navigation.lattice.states import FREEZE_AFTER, no_cycle_collection
 from domain.strategy import Situation
-from domain.triggers import Initial
-from domain.worldmodel import WorldModel
-from primitives.library import load_bundled
+from domain.triggers import Initial, PathBlocked
+from domain.world import RangeObservation, WorldModel
 from sim.obstacles import Circle
 from sim.world import Bounds
+from tests.domain.lattice_scenes import LIB, SETTINGS, STRAIGHT, legs, scene
 
 BOUNDS = Bounds(-3.0, 3.0, -3.0, 3.0)
 
@@ -30,13 +31,9 @@ def unfreeze() -> Iterator[None]:
     gc.unfreeze()
 
 
-def situation(world: WorldModel) -> Situation:
-    goals = tuple(LegGoal(i, 2.0, -2.0 + i, 0.1) for i in range(3))
-    return Situation(0.0, (-2.0, 0.0, 0.0), (0.0, 0.0, 0.0), "straight", goals, False, world)
-
-
 class LateCancel:
-    """A cancel flag set from its ``after``-th look on (a cancel arriving mid-search)."""
+    """A cancel flag set from its ``after``-th look on (a cancel arriving mid-search), counting
+    the looks."""
 
     def __init__(self, after: int) -> None:
         self.after, self.looks = after, 0
@@ -46,29 +43,86 @@ class LateCancel:
         return self.looks >= self.after
 
 
-def test_a_cancelled_replan_ends_at_once_with_no_problem_to_write() -> None:
-    world = WorldModel(BOUNDS, [Circle(0.0, 0.0, 0.5)])
-    strategy = NavigationStrategy(load_bundled(), LatticePlanner(BOUNDS, LatticeSettings()))
-    cancel = LateCancel(after=4)  # the distance maps look first, then the search
-    out = strategy.replan(situation(world), Initial(), cancel)
-    assert not out.ok and out.record.status == "cancelled"
-    assert strategy.plan is not None and strategy.plan.legs  # it had searched a while
+def long_request(cancel) -> tuple[Planner, PlanRequest]:
+    """Across a cluttered arena, from a heading facing away: thousands of expansions."""
+    bounds, obstacles = scene("cluttered", 6.0, 1)
+    world = WorldModel(bounds, obstacles, SETTINGS.costmap)
+    p = Planner(bounds, SETTINGS)
+    x, y, psi = (float(v) for v in p.pose_of(STRAIGHT, (*p.grid.cell(-2.0, -2.0), 40)))
+    request = PlanRequest((x, y, psi), STRAIGHT, legs([(2.2, 2.2)]), True, world, None, cancel)
+    return p, request
+
+
+def test_a_cancel_before_planning_ends_it_at_once() -> None:
+    flag = threading.Event()
+    flag.set()
+    p, request = long_request(flag)
+    out = p.plan(request)
+    assert isinstance(out, Failure)
+    assert (out.kind, out.reason, out.proof, out.goal) == (
+        "cancelled",
+        "planning cancelled",
+        None,
+        None,
+    )
+
+
+def test_without_a_cancel_the_same_request_is_planned() -> None:
+    p, request = long_request(LateCancel(after=10**9))
+    out = p.plan(request)
+    assert isinstance(out, Plan) and out.expansions > 3 * 256  # several chunks of the kernel
+    assert request.cancel is not None and request.cancel.looks > 3  # type: ignore[attr-defined]
+
+
+@pytest.mark.parametrize("search", ["cost", "gbf"])
+def test_a_cancel_arriving_mid_search_ends_it(search: str) -> None:
+    """The flag is looked at before each goal's map and between chunks of the search (or every
+    expansion of pyperplan's): set on the third look, the search is under way."""
+    cancel = LateCancel(after=3)
+    _, request = long_request(cancel)
+    bounds = request.world.bounds
+    out = Planner(bounds, SETTINGS, search=search).plan(request)
+    assert isinstance(out, Failure) and out.kind == "cancelled"
+    assert cancel.looks == 3  # it stopped at the look that saw the cancel
+
+
+def test_a_cancel_stops_a_local_repair_too() -> None:
+    """Something sensed on the plan being run: the repair searches a detour, and stops."""
+    world = WorldModel(BOUNDS, [Circle(0.0, 0.8, 0.3)], SETTINGS.costmap)
+    p = Planner(BOUNDS, SETTINGS)
+    goals = legs([(-2.2, 2.0)])
+    first = p.plan(PlanRequest((2.2, -2.0, 3.1), STRAIGHT, goals, True, world))
+    assert isinstance(first, Plan)
+    x, y, _ = [a for a in first.actions if a.name == "move"][8].target
+    for _ in range(3):
+        world.integrate([RangeObservation((x + 0.5, y), math.pi, 0.0, 1.0, 0.5, True)])
+    previous = Plan(first.actions[1:], shape="straight")
+    here = first.actions[0].target
+    repaired = p.plan(PlanRequest(here, STRAIGHT, goals, True, world, previous))
+    assert isinstance(repaired, Plan) and repaired.repaired and repaired.expansions > 0
+    flag = threading.Event()
+    flag.set()
+    again = p.plan(PlanRequest(here, STRAIGHT, goals, True, world, previous, flag))
+    assert isinstance(again, Failure) and again.kind == "cancelled"
+
+
+def situation(world: WorldModel) -> Situation:
+    goals = tuple(LegGoal(i, 2.0, -2.0 + i, 0.1) for i in range(3))
+    return Situation(0.0, (-2.0, 0.0, 0.0), (0.0, 0.0, 0.0), "straight", goals, False, world)
+
+
+def test_a_cancelled_replan_reports_it_and_writes_no_problem() -> None:
+    world = WorldModel(BOUNDS, [Circle(0.0, 0.0, 0.5)], SETTINGS.costmap)
+    strategy = NavigationStrategy(LIB, Planner(BOUNDS, SETTINGS))
+    out = strategy.replan(situation(world), Initial(), LateCancel(after=4))
+    assert not out.ok and out.failure == "cancelled" and out.record.status == "cancelled"
+    assert out.record.trigger == "initial" and out.plan == []
     assert out.problem_pddl == ""  # nothing written for a cancelled search's lattice
-    assert strategy.table is not None and strategy.table.shape == "straight"  # no reshape
-
-
-def test_reshaping_tries_no_shape_once_cancelled() -> None:
-    world = WorldModel(BOUNDS, [Circle(0.0, 0.0, 0.5)])
-    planner = LatticePlanner(BOUNDS, LatticeSettings())
-    strategy = NavigationStrategy(load_bundled(), planner)
-    table = strategy.table_for("straight", (0.0, 0.0, 0.0))
-    assert table is not None
-    cancel = threading.Event()
-    cancel.set()
-    s = situation(world)
-    assert strategy._reshaped(table, s, s.pose, cancel) is None
-    tier_free = planner.cut_off(table, world.clearance_at, 0, s.pose, s.goals, cancel)
-    assert tier_free  # no distance map is made for a cancelled mission: taken as cut off
+    assert strategy.plan is None
+    assert strategy.table is not None and strategy.table.shape == "straight"
+    # The next replan, not cancelled, plans as usual.
+    again = strategy.replan(situation(world), PathBlocked("(move s1 s2 p)", (0.0, 0.0)))
+    assert again.ok and again.plan and strategy.plan is not None
 
 
 def test_a_long_pause_freezes_what_it_made_and_a_short_one_does_not() -> None:

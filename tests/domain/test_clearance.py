@@ -1,14 +1,15 @@
-"""Clearance maps kept current by windowed updates equal a full distance transform."""
+"""Clearance maps kept current by windowed updates equal a full distance transform, and the
+world model's lethal clearance stays that of its lethal layers (soft evidence never enters it)."""
 
 from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy import ndimage
 
-from domain.clearance import DistanceMap, clearance_map
-from domain.grid import Grid
-from domain.interpolate import bilinear
-from domain.worldmodel import RangeObservation, WorldModel
+from domain import kernels
+from domain.world import Grid, RangeObservation, WorldModel
+from domain.world.distance import DistanceMap, clearance_map
 from sim.obstacles import Circle
 from sim.world import Bounds
 
@@ -62,26 +63,53 @@ def ray_at(rng: np.random.Generator, targets: np.ndarray, seen_through: bool) ->
     return RangeObservation(at, angle, 0.0, 1.5, d, True, 0.02)
 
 
-def test_world_model_clearance_stays_that_of_its_layers() -> None:
-    rng = np.random.default_rng(3)
-    model = WorldModel(Bounds(-3, 3, -3, 3))
+STRAIGHT = (0.0, 0.0, 0.0)
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_lethal_clearance_stays_that_of_its_layers(seed: int) -> None:
+    """Readings that mark cells and later see through them, contacts, the body lying over
+    cells, evidence cleared round the robot, a known obstacle added and removed: the lethal
+    clearance read now and then is always the walls and known obstacles with a full transform
+    of the sensed cells, and contact evidence never lowers it."""
+    rng = np.random.default_rng(seed)
+    bounds = Bounds(-3, 3, -3, 3)
+    model = WorldModel(bounds)
+    walls = WorldModel(bounds).static_clearance().copy()  # what nothing known or sensed leaves
     targets = rng.uniform(-2, 2, (7, 2))
-    static = WorldModel(Bounds(-3, 3, -3, 3)).clearance()  # walls only: what nothing sensed leaves
+    post = Circle(float(targets[0][0]), float(targets[0][1]), 0.2)
+    contacts, counts = 0, []
     for tick in range(120):
-        readings = []
-        for _ in range(6):
-            # single rays at a few fixed targets: they become occupied; after tick 60 the
-            # readings pass through them and they cease to be (the map is rebuilt then)
-            readings.append(ray_at(rng, targets, seen_through=tick >= 60))
+        readings = [ray_at(rng, targets, seen_through=(tick // 30) % 2 == 1) for _ in range(6)]
         model.integrate(readings)
-        if tick % 25 == 0:
-            model.add_contact((float(rng.uniform(-3, 3)), float(rng.uniform(-3, 3))))
+        counts.append(int(model.sensed_occupied().sum()))
+        if tick % 20 == 7:
+            x, y = (float(v) for v in rng.uniform(-2.5, 2.5, 2))
+            lethal, version = model.lethal_clearance(), model.version
+            model.add_contact((x, y, float(rng.uniform(-3, 3))), STRAIGHT, 2, "left", tick * 0.25)
+            assert model.version == version and model.lethal_clearance() is lethal
+            contacts += 1
+        if tick % 25 == 11:
+            x, y = (float(v) for v in targets[int(rng.integers(len(targets)))])
+            model.observe_body((x - 0.2, y, 0.0), STRAIGHT)
+        if tick % 40 == 30:
+            model.clear_evidence((float(targets[1][0]), float(targets[1][1])), 0.5)
+        if tick == 50:
+            model.add_known(post)
+        if tick == 90:
+            assert model.remove_known(post)
         if tick % 10 == 0:
-            layers = model.sensed_occupied() | model.contact_occupied()
+            static = model.static_clearance()
             cap = model.settings.max_clearance
-            full = clearance_map(layers, model.grid.resolution, cap)
-            np.testing.assert_array_equal(model.clearance(), np.minimum(static, full))
-    assert model.sensed_occupied().any() and model.contact_occupied().any()
+            full = clearance_map(model.sensed_occupied(), model.grid.resolution, cap)
+            np.testing.assert_array_equal(model.lethal_clearance(), np.minimum(static, full))
+            if 50 <= tick < 90:
+                assert np.all(static <= walls) and np.any(static < walls)
+            else:
+                np.testing.assert_array_equal(static, walls)
+    rises = np.diff(counts)
+    assert rises.max() > 0 and rises.min() < 0  # cells were marked, and cleared again
+    assert contacts and model.soft_version > 0
 
 
 @pytest.mark.parametrize("seed", range(20))
@@ -126,65 +154,12 @@ def test_windowed_removals_from_walls_equal_the_full_transform(seed: int) -> Non
         np.testing.assert_array_equal(live.get(), clearance_map(occupied, 0.05, cap))
 
 
-def reference_inflated(model: WorldModel, inflation: float, grow: float, suspect: bool):
-    """The inflated clearance grid from full transforms of the layers as they are now."""
-    cap, res = model.settings.max_clearance, model.grid.resolution
-    sensed = np.maximum(clearance_map(model.sensed_occupied(), res, cap) - inflation, 0.0)
-    touched = model.contact_occupied() | (model.suspected() if suspect else False)
-    near = np.maximum(clearance_map(touched, res, cap) - grow, 0.0)
-    if grow == inflation and not suspect:
-        dynamic = np.minimum(
-            clearance_map(model.sensed_occupied(), res, cap),
-            clearance_map(model.contact_occupied(), res, cap),
-        )
-        return np.minimum(model._static, np.maximum(dynamic - inflation, 0.0))
-    return np.minimum(model._static, np.minimum(sensed, near))
-
-
-@pytest.mark.parametrize("seed", range(6))
-def test_inflated_clearance_kept_current_equals_a_rebuild(seed: int) -> None:
-    """Readings that mark and unmark cells, contacts, suspected cells that beams clear again,
-    a known obstacle: the inflated grids, read now and then, are always those of the layers."""
-    rng = np.random.default_rng(seed)
-    bounds = Bounds(-3, 3, -3, 3)
-    model = WorldModel(bounds)
-    targets = rng.uniform(-2, 2, (6, 2))
-    centres = model.grid.centres(np.arange(model.grid.nx * model.grid.ny)).reshape(
-        model.grid.nx, model.grid.ny, 2
-    )
-    keys = [(0.05, 0.1, True), (0.05, 0.05, False), (0.05, 0.02, False), (0.05, 0.1, False)]
-    suspected_seen = False
-    for tick in range(90):
-        readings = []
-        for _ in range(5):
-            readings.append(ray_at(rng, targets, seen_through=(tick // 20) % 2 == 1))
-        model.integrate(readings)
-        if tick % 15 == 3:
-            model.add_contact((float(rng.uniform(-2.5, 2.5)), float(rng.uniform(-2.5, 2.5))))
-        if tick % 10 == 5:  # along a beam's line: later readings see some of them free
-            target = targets[int(rng.integers(len(targets)))]
-            line = target + np.linspace(-0.4, 0.4, 12)[:, None] * rng.normal(size=2)
-            model.add_suspected([(float(x), float(y)) for x, y in line])
-        if tick == 40:
-            model.add_known(Circle(float(targets[0][0]), float(targets[0][1]), 0.2))
-        suspected_seen |= bool(model.suspected().any())
-        if tick % int(rng.integers(1, 6)) == 0:
-            inflation, grow, suspect = keys[int(rng.integers(len(keys)))]
-            got = model.inflated_clearance_at(centres, inflation, grow, suspected=suspect)
-            want = reference_inflated(model, inflation, grow, suspect and model.suspected().any())
-            np.testing.assert_array_equal(got, bilinear(want, model.grid, centres, bounds))
-    assert suspected_seen and model.contact_occupied().any()
-
-
 @pytest.mark.parametrize("seed", range(40))
-def test_compiled_transform_equals_scipys(seed: int) -> None:
+def test_compiled_transform_equals_scipys(seed: int, monkeypatch: pytest.MonkeyPatch) -> None:
     """The compiled clearance map gives scipy's transform's numbers, value for value: sparse,
-    dense, thin and one-cell grids, several resolutions and caps."""
-    from scipy import ndimage
-
-    from domain import occupancy_kernel
-
-    if not occupancy_kernel.AVAILABLE:
+    dense, thin and one-cell grids, several resolutions and caps; so does the path taken with
+    the kernels off."""
+    if not kernels.AVAILABLE:
         pytest.skip("numba kernels are off")
     rng = np.random.default_rng(seed)
     for _ in range(40):
@@ -196,3 +171,6 @@ def test_compiled_transform_equals_scipys(seed: int) -> None:
             ndimage.distance_transform_edt(~occupied) * resolution - 0.5 * resolution, 0.0, cap
         )
         np.testing.assert_array_equal(clearance_map(occupied, resolution, cap), scipy_map)
+        with monkeypatch.context() as m:
+            m.setattr(kernels, "AVAILABLE", False)
+            np.testing.assert_array_equal(clearance_map(occupied, resolution, cap), scipy_map)

@@ -7,14 +7,13 @@ import math
 import numpy as np
 import pytest
 
-from domain import occupancy_kernel
-from domain.interpolate import bilinear
-from domain.occupancy import RangeObservation, SensedLayer, WorldModelSettings
-from domain.worldmodel import WorldModel
+from domain import kernels
+from domain.world import CostmapSettings, RangeObservation, WorldModel, bilinear
+from domain.world.sensed import SensedLayer, clearing
 from sim.obstacles import Circle, rectangle, unit_vectors
 from sim.world import Bounds, World
 
-pytestmark = pytest.mark.skipif(not occupancy_kernel.AVAILABLE, reason="numba kernels are off")
+pytestmark = pytest.mark.skipif(not kernels.AVAILABLE, reason="numba kernels are off")
 
 BOUNDS = Bounds(-3.0, 3.0, -2.0, 2.0)
 OBSTACLES = (
@@ -64,8 +63,8 @@ def test_compiled_update_equals_numpy(seed: int, sensors) -> None:
     rng = np.random.default_rng(seed)
     world = World(BOUNDS, OBSTACLES)
     model = WorldModel(BOUNDS, OBSTACLES[:2])  # its static layer explains hits on these
-    known = model._static
-    settings = WorldModelSettings()
+    known = model.static_clearance()
+    settings = CostmapSettings()
     compiled = SensedLayer(model.grid, settings, compiled=True)
     reference = SensedLayer(model.grid, settings, compiled=False)
     assert compiled.compiled and not reference.compiled
@@ -89,9 +88,9 @@ def test_compiled_update_equals_numpy(seed: int, sensors) -> None:
 
 def test_no_readings_change_nothing() -> None:
     model = WorldModel(BOUNDS)
-    layer = SensedLayer(model.grid, WorldModelSettings(), compiled=True)
+    layer = SensedLayer(model.grid, CostmapSettings(), compiled=True)
     nan = RangeObservation((0.0, 0.0), 0.0, 0.0, 1.0, math.nan, False)
-    became, ceased = layer.integrate([nan], model._static)
+    became, ceased = layer.integrate([nan], model.static_clearance())
     assert became.size == 0 and ceased.size == 0
     assert not np.any(layer.log_odds)
 
@@ -101,7 +100,7 @@ def test_pairwise_sum_is_numpys() -> None:
     rng = np.random.default_rng(3)
     for n in (*range(0, 20), 127, 128, 129, 300, 1000):
         a = rng.random(n) * 10.0 ** rng.integers(-3, 3, n)
-        assert occupancy_kernel._pairwise_sum(a, 0, n) == np.sum(a)
+        assert clearing._pairwise_sum(a, 0, n) == np.sum(a)
 
 
 @pytest.mark.parametrize("shape", [(1, 1), (1, 7), (6, 1), (40, 30)])
@@ -121,7 +120,7 @@ def test_bilinear_equals_numpy(shape: tuple[int, int], monkeypatch: pytest.Monke
     )
     compiled = bilinear(grid, model.grid, pts)
     within = bilinear(grid, model.grid, pts, bounds)
-    monkeypatch.setattr(occupancy_kernel, "AVAILABLE", False)
+    monkeypatch.setattr(kernels, "AVAILABLE", False)
     reference = bilinear(grid, model.grid, pts)
     assert compiled.shape == reference.shape == within.shape == (5, 41)
     assert np.array_equal(compiled, reference)

@@ -1,0 +1,183 @@
+"""Recoveries in the behaviour tree: the printed tree and its snapshots show the recovery node
+and every recovery by name; a mission that touches something backs off (a ``recovery`` event,
+the node seen running) and still reaches its goal; a body that cannot reach its goal in its
+shape changes shape and reaches it; the recovery composites retry, give up and take turns as
+Nav2's RecoveryNode and RoundRobin do."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import py_trees
+import pytest
+from py_trees.behaviours import Failure as Fails
+from py_trees.behaviours import Success as Succeeds
+from py_trees.common import Status
+
+from app.executor.recoveries import RecoveryNode, RoundRobin
+from app.executor.runner import MissionRunner
+from app.executor.tree import build_tree
+from app.missions.spec import MissionSpec, load_mission
+from domain.navigation import RecoverySettings
+from primitives.library import load_bundled
+
+LIB = load_bundled()
+HARD = Path(__file__).parents[2] / "examples" / "hard"
+RECOVERIES = ("back off", "sense and retry", "spin to sense", "reshape", "clear stale evidence")
+
+
+def nodes(tree: dict[str, Any]) -> list[dict[str, Any]]:
+    """A snapshot's nodes, depth first."""
+    return [tree, *(n for child in tree["children"] for n in nodes(child))]
+
+
+def node(tree: dict[str, Any], name: str) -> dict[str, Any]:
+    """The snapshot's node of that name (the first, depth first)."""
+    return next(n for n in nodes(tree) if n["name"] == name)
+
+
+def test_the_printed_tree_shows_the_recovery_node_and_every_recovery() -> None:
+    spec = MissionSpec.model_validate(
+        {"goals": [{"x": 1, "y": 0}], "bounds": {"xmin": -3, "xmax": 3, "ymin": -3, "ymax": 3}}
+    )
+    root = build_tree(spec, "/mission_printed", RecoverySettings(retries=3))
+    text = py_trees.display.unicode_tree(root, show_status=True)
+    lines = [line.strip() for line in text.splitlines()]
+    assert any(line.endswith("navigate with recovery [-]") for line in lines)
+    for name in ("follow plan", "recover", *RECOVERIES):
+        assert any(name in line for line in lines), name
+    # the recovery node runs the plan first and the recoveries second, in that order
+    recovery = next(n for n in root.iterate() if isinstance(n, RecoveryNode))
+    assert [c.name for c in recovery.children] == ["follow plan", "recover"]
+    assert recovery.retries == 3
+    order = [
+        next(i for i, line in enumerate(lines) if line.startswith(f"{mark} {name} "))
+        for mark, name in (("[-]", "follow plan"), ("[o]", "recover"), ("-->", "back off"))
+    ]
+    assert order == sorted(order)
+
+
+def test_a_mission_that_touches_something_backs_off_and_still_reaches_its_goal() -> None:
+    spec = load_mission(HARD / "tail-first-hidden-post.json")
+    snapshots: list[dict[str, Any]] = []
+    runner = MissionRunner(spec, LIB, on_tick=lambda ctx, snap: snapshots.append(snap))
+    result = runner.run()
+    assert result.status == "succeeded", result.reason
+    assert all(g.reached for g in result.goals)
+    kinds = [e["kind"] for e in result.events]
+    assert "collision" in kinds and "recovery" in kinds
+    touched = kinds.index("collision")
+    recovery = result.events[kinds.index("recovery")]
+    assert kinds.index("recovery") > touched
+    assert recovery["recovery"] == "back off" and recovery["moves"]
+    assert "touched something" in recovery["because"]
+    done = next(e for e in result.events if e["kind"] == "recovery_done")
+    assert done["recovery"] == "back off" and done["outcome"] == "done"
+    # While it backs off, the tree shows the recovery node and the back-off running.
+    backing = [s for s in snapshots if node(s["tree"], "back off")["status"] == "RUNNING"]
+    assert backing
+    during = node(backing[0]["tree"], "navigate with recovery")
+    assert during["type"] == "RecoveryNode" and during["status"] == "RUNNING"
+    assert during["feedback"].startswith("recovering (1 of at most")
+    assert backing[0]["action"].startswith("(back-off ")
+    # the goal was reached after the back-off
+    reached = next(e for e in result.events if e["kind"] == "goal_reached")
+    assert reached["t"] > done["t"]
+
+
+def pocket_mission() -> tuple[MissionRunner, Any]:
+    spec = load_mission(HARD / "reshape-into-pocket.json")
+    assert spec.shape == "zigzag"
+    runner = MissionRunner(spec, LIB)
+    return runner, runner.run()
+
+
+def test_a_body_that_cannot_enter_a_pocket_in_its_shape_reshapes_and_reaches_the_goal() -> None:
+    runner, result = pocket_mission()
+    assert result.status == "succeeded", result.reason
+    assert all(g.error is not None and g.error <= g.tolerance for g in result.goals)
+    kinds = [e["kind"] for e in result.events]
+    recovery = result.events[kinds.index("recovery")]
+    assert recovery["recovery"] == "reshape" and recovery["moves"] == ["into straight"]
+    assert recovery["because"].startswith("unreachable")
+    assert result.events[kinds.index("shape_change")]["shape"] == "straight"
+    assert runner.ctx.shape == "straight"
+    # the first plan (zigzag) found it out of reach; the one after the change reaches it
+    assert [(r.trigger, r.status) for r in result.replans][:1] == [("recovered", "solved")]
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="Reshape (app/executor/recoveries.py) commands the target joints from its first "
+    "tick but sets ctx.shape and ctx.joints only in done(); meanwhile ShapeGuard "
+    "(app/executor/behaviours.py) compares the sensed joints with ctx.joints, takes the "
+    "commanded change for an environment deformation: a 'deform' event, ctx.deformed = True "
+    "(no reshape is offered again in this mission), a ShapeChanged trigger, and done() then "
+    "records the shape_change as from 'straight' to 'straight'",
+)
+def test_a_commanded_shape_change_is_not_reported_as_a_deformation() -> None:
+    runner, result = pocket_mission()
+    assert result.status == "succeeded"
+    assert not [e for e in result.events if e["kind"] == "deform"]
+    change = next(e for e in result.events if e["kind"] == "shape_change")
+    assert (change["previous"], change["shape"]) == ("zigzag", "straight")
+    assert not runner.ctx.deformed
+
+
+# -- the composites -----------------------------------------------------------------------------
+
+
+def tick(root: py_trees.behaviour.Behaviour, times: int = 1) -> Status:
+    for _ in range(times):
+        root.tick_once()
+    return root.status
+
+
+def test_the_recovery_node_recovers_then_follows_again() -> None:
+    """The plan fails; a recovery succeeds; the plan runs again on the next tick."""
+    pipeline = py_trees.behaviours.StatusQueue(
+        "follow", [Status.FAILURE, Status.RUNNING, Status.RUNNING], eventually=Status.SUCCESS
+    )
+    root = RecoveryNode("with recovery", pipeline, Succeeds("recover"), retries=2, settle_ticks=8)
+    assert tick(root) == Status.RUNNING and "recovered" in root.feedback_message
+    assert tick(root) == Status.RUNNING and root.feedback_message.startswith("following")
+    assert tick(root, 2) == Status.SUCCESS
+
+
+def test_the_recovery_node_gives_up_after_its_retries() -> None:
+    root = RecoveryNode("with recovery", Fails("follow"), Succeeds("recover"), 3, 8)
+    statuses = [tick(root) for _ in range(4)]
+    assert statuses == [Status.RUNNING] * 3 + [Status.FAILURE]
+    assert root.feedback_message == "gave up after 3 recoveries in a row"
+
+
+def test_recoveries_count_afresh_after_the_plan_has_run_a_while() -> None:
+    """Progress between recoveries (the plan ran ``settle_ticks`` ticks): never gives up."""
+    pattern = [Status.FAILURE, Status.RUNNING, Status.RUNNING] * 6
+    pipeline = py_trees.behaviours.StatusQueue("follow", pattern, eventually=Status.RUNNING)
+    root = RecoveryNode("with recovery", pipeline, Succeeds("recover"), 2, settle_ticks=2)
+    assert all(tick(root) == Status.RUNNING for _ in range(len(pattern)))
+
+
+def test_the_recovery_node_fails_when_no_recovery_applies() -> None:
+    root = RecoveryNode("with recovery", Fails("follow"), Fails("recover"), 3, 8)
+    assert tick(root) == Status.FAILURE and root.feedback_message == "no recovery applies"
+
+
+@pytest.mark.parametrize("ran", [0, 1])
+def test_round_robin_starts_after_the_child_that_ran_last(ran: int) -> None:
+    children = [Succeeds("spin"), Succeeds("reshape"), Succeeds("clear")]
+    robin = RoundRobin("sense and retry", children)
+    for _ in range(ran + 1):
+        tick(robin)
+    assert robin.status == Status.SUCCESS
+    assert robin.feedback_message == f"{children[ran].name} done"
+    assert robin.next == (ran + 1) % 3
+
+
+def test_round_robin_hands_on_past_failing_children_and_fails_when_all_did() -> None:
+    robin = RoundRobin("sense and retry", [Fails("spin"), Succeeds("reshape"), Fails("clear")])
+    assert tick(robin) == Status.SUCCESS and robin.feedback_message == "reshape done"
+    nothing = RoundRobin("sense and retry", [Fails("spin"), Fails("reshape"), Fails("clear")])
+    assert tick(nothing) == Status.FAILURE and nothing.feedback_message == "none applies"

@@ -1,0 +1,185 @@
+"""``PlanRequest -> Plan | Failure``: every way planning fails is typed as ``Failure`` says
+(its kind, a specific reason, the proof of an unreachable goal, the goal it concerns), soft
+costs never cause one, and motions out of a start resting against something never take the
+body in deeper."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from typing import get_args
+
+import numpy as np
+import pytest
+
+from domain.goal_order import LegGoal
+from domain.navigation import Failure, NavigationStrategy, Plan, Planner
+from domain.navigation.lattice.costs import state_costs
+from domain.navigation.plan import FailureKind, Proof
+from domain.navigation.settings import SearchSettings
+from domain.strategy import Situation
+from domain.triggers import Initial
+from domain.world import WorldModel
+from sim.obstacles import Circle, rectangle
+from sim.world import Bounds
+from tests.domain.lattice_scenes import LIB, SETTINGS, STRAIGHT, plan
+from tests.domain.test_feasibility import BOX
+
+ARENA = Bounds(-2, 2, -2, 2)
+
+
+def pen(y0: float) -> list:
+    """A box round the resting straight body (head at the origin, heading 0: it lies along
+    +x) whose south wall is ``y0`` from the axis, with a 0.16 m door in its west wall: the
+    centroid could pass the door, the body cannot."""
+    x0, x1, y1, t, dlo, dhi = -0.2, 1.1, 0.3, 0.1, -0.03, 0.13
+    return [
+        rectangle((x0 + x1) / 2, y1 + t / 2, x1 - x0 + 2 * t, t),
+        rectangle((x0 + x1) / 2, y0 - t / 2, x1 - x0 + 2 * t, t),
+        rectangle(x1 + t / 2, (y0 + y1) / 2, t, y1 - y0),
+        rectangle(x0 - t / 2, (y0 + dlo) / 2, t, dlo - y0),
+        rectangle(x0 - t / 2, (dhi + y1) / 2, t, y1 - dhi),
+    ]
+
+
+def failure(**kw) -> Failure:
+    out = plan(**kw)[2]
+    assert isinstance(out, Failure), out
+    assert out.kind in get_args(FailureKind) and out.status == out.kind
+    assert out.proof is None or out.proof in get_args(Proof)
+    assert out.reason and out.search_ms >= 0
+    return out
+
+
+def test_unreachable_names_the_goal_and_its_proof() -> None:
+    out = failure(
+        bounds=Bounds(-4, 4, -4, 4), obstacles=BOX, pose=(-2.0, -2.0, 0.0), goals=[(2.0, 2.0)]
+    )
+    assert (out.kind, out.proof, out.goal) == ("unreachable", "known", 0)
+    assert "goal 0 at (2, 2)" in out.reason
+
+
+def test_a_later_goal_of_a_tour_out_of_reach_fails_the_tour_with_its_index() -> None:
+    goals = [(-2.0, 2.0), (2.0, 2.0)]  # the second inside the closed box
+    out = failure(bounds=Bounds(-4, 4, -4, 4), obstacles=BOX, pose=(-2.0, -2.0, 0.0), goals=goals)
+    assert (out.kind, out.goal) == ("unreachable", 1)
+
+
+def test_a_goal_the_centroid_could_reach_but_the_body_cannot_is_unreachable() -> None:
+    out = failure(bounds=ARENA, obstacles=pen(-0.2), pose=(0.0, 0.0, 0.0), goals=[(-1.0, 0.0)])
+    assert (out.kind, out.proof, out.goal) == ("unreachable", "known", 0)
+    assert out.reason.startswith("unreachable: no collision-free sequence of straight")
+    assert out.expansions > 0  # the search found it: the reachable lattice ran out
+
+
+def test_a_start_against_a_wall_with_no_way_out_is_start_blocked() -> None:
+    """The same pen, its south wall 1 mm into the resting body: no plan leads out, and no
+    proof about the goal is claimed (the recoveries back off first)."""
+    out = failure(bounds=ARENA, obstacles=pen(-0.074), pose=(0.0, 0.0, 0.0), goals=[(-1.0, 0.0)])
+    assert (out.kind, out.proof, out.goal) == ("start_blocked", None, None)
+    assert out.reason.startswith("start blocked: the straight body rests closer")
+
+
+def test_a_spent_budget_with_no_progress_is_a_timeout_naming_the_budget() -> None:
+    settings = dataclasses.replace(SETTINGS, search=SearchSettings(expansions=1))
+    out = failure(
+        bounds=ARENA, obstacles=[], pose=(0.0, 0.0, 0.0), goals=[(-1.5, 1.5)], settings=settings
+    )
+    assert (out.kind, out.proof, out.goal) == ("timeout", None, 0)
+    assert out.reason == "planning timeout: no plan to goal 0 at (-1.5, 1.5) within 1 expansions"
+
+
+def test_a_spent_budget_after_progress_is_a_partial_plan_towards_the_goal() -> None:
+    settings = dataclasses.replace(SETTINGS, search=SearchSettings(expansions=40))
+    bounds = Bounds(-3, 3, -3, 3)
+    _, _, out = plan(
+        bounds, [Circle(0.0, 0.0, 0.5)], (2.0, 0.0, 0.0), [(-2.0, 0.0)], settings=settings
+    )
+    assert isinstance(out, Plan) and out.partial
+    assert out.actions and all(a.name == "move" for a in out.actions)  # no visit yet
+    assert math.dist(out.actions[-1].target[:2], (-2.0, 0.0)) < 4.0 - SETTINGS.search.progress
+
+
+def test_the_time_limit_ends_planning_as_a_timeout() -> None:
+    out = failure(
+        bounds=ARENA, obstacles=[], pose=(0.0, 0.0, 0.0), goals=[(-1.5, 1.5)], time_limit=0.0
+    )
+    assert (out.kind, out.goal) == ("timeout", None)
+    assert out.reason == "planning timeout: no plan within 0 s"
+
+
+def test_a_shape_without_primitives_fails_as_no_primitives() -> None:
+    world = WorldModel(ARENA, (), SETTINGS.costmap)
+    strategy = NavigationStrategy(LIB, Planner(ARENA, SETTINGS))
+    goals = (LegGoal(0, 1.0, 1.0, 0.1),)
+    situation = Situation(0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), "periodic", goals, True, world)
+    out = strategy.replan(situation, Initial())
+    assert not out.ok and out.failure == "no_primitives" and out.proof is None
+    assert out.reason == "body shape periodic has no primitives in the library"
+    assert out.record.status == "no_primitives" and strategy.plan is None
+
+
+def test_the_strategy_hands_the_failure_and_its_proof_to_the_tree() -> None:
+    bounds = Bounds(-4, 4, -4, 4)
+    world = WorldModel(bounds, BOX, SETTINGS.costmap)
+    strategy = NavigationStrategy(LIB, Planner(bounds, SETTINGS))
+    goals = (LegGoal(0, 2.0, 2.0, 0.1),)
+    situation = Situation(0.0, (-2.0, -2.0, 0.0), (0.0, 0.0, 0.0), "straight", goals, True, world)
+    out = strategy.replan(situation, Initial())
+    assert (out.ok, out.failure, out.proof) == (False, "unreachable", "known")
+    assert out.record.status == "unreachable" and out.plan == []
+    assert out.problem_pddl == ""  # no plan: no problem to write
+    assert strategy.plan is None and strategy.command(situation) is None
+
+
+def resting_slack(world: WorldModel, p: Planner, key) -> float:
+    """The least clearance the resting body at lattice state ``key`` keeps beyond its need, by
+    the world model's own clearance."""
+    i, j, k = key
+    points = p.grid.centre(i, j) + STRAIGHT.body_points[k]
+    return float(np.min(world.clearance_at(points) - STRAIGHT.body_needs[k]))
+
+
+def deepest_out_of_the_start(wall) -> tuple[float, dict[str, float]]:
+    """The resting body's slack against ``wall`` and, per motion valid out of the start, the
+    least slack its swept points keep (the world model's clearance throughout)."""
+    world = WorldModel(ARENA, [wall], SETTINGS.costmap)
+    p = Planner(ARENA, SETTINGS)
+    pose = (0.0, 0.0, 0.0)
+    start = p.key_of(STRAIGHT, pose)
+    c = STRAIGHT.centroid(np.asarray(pose))
+    inputs = p.inputs(world, STRAIGHT, (float(c[0]), float(c[1])))
+    bits, _ = state_costs(p.grid.encode(start), inputs, p.start_table(STRAIGHT, start, inputs))
+    i, j, k = start
+    centre, seg = p.grid.centre(i, j), STRAIGHT.segments[k]
+    out = {}
+    for m, name in enumerate(STRAIGHT.names):
+        if not (bits >> m) & 1:
+            continue
+        hi = int(seg[m + 1]) if m + 1 < len(seg) else len(STRAIGHT.points[k])
+        points, needs = STRAIGHT.points[k][seg[m] : hi], STRAIGHT.needs[k][seg[m] : hi]
+        out[name] = float(np.min(world.clearance_at(centre + points) - needs))
+    return resting_slack(world, p, start), out
+
+
+def test_a_start_resting_against_its_tail_s_wall_may_move_off_it() -> None:
+    rest, motions = deepest_out_of_the_start(rectangle(0.979 + 0.1, 0.0, 0.2, 1.0))
+    assert motions  # it can move
+    assert all(s >= min(rest, 0.0) - SETTINGS.touch_deeper - 1e-9 for s in motions.values())
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="Planner.start_table measures the resting body's slack per cell, from "
+    "body_check_needs (a point's need plus its offset from the cell centre, |dx| + |dy|): a "
+    "lower bound up to ~5 cm below the points' own slack. The margin out of the start is "
+    "relaxed to that bound less touch_deeper, so 5 cm moves towards the wall the head rests "
+    "against stay valid and sweep ~2 cm deeper than the resting body is (touch_deeper: 5 mm)",
+)
+def test_motions_out_of_a_start_resting_against_a_wall_never_go_in_deeper() -> None:
+    """The head rests on a wall (the snapped state closer than the margin): no motion valid
+    out of the start brings the body nearer to it than it rests, less ``touch_deeper``."""
+    rest, motions = deepest_out_of_the_start(rectangle(-0.105 - 0.1, 0.0, 0.2, 1.0))
+    assert rest < SETTINGS.margin and motions
+    deeper = {n: s for n, s in motions.items() if s < rest - SETTINGS.touch_deeper - 1e-9}
+    assert not deeper, (rest, deeper)
