@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import secrets
 from typing import Any, NoReturn
-from urllib.parse import parse_qs, unquote, urlsplit
+from urllib.parse import unquote, unquote_to_bytes, urlsplit
 
 from fastapi import FastAPI, HTTPException, Request
 from fastapi.exceptions import RequestValidationError
@@ -53,24 +53,34 @@ def needs_key(settings: Settings, scope: Scope) -> bool:
 
 
 def given_key(scope: Scope) -> bytes | None:
-    """The bearer token of ``Authorization``; for websockets also ``?token=`` (browsers
-    cannot set headers on a websocket)."""
+    """The bearer token of ``Authorization`` as its raw bytes; for websockets also ``?token=``
+    (browsers cannot set headers on a websocket), percent-decoded to bytes (a UTF-8 key is
+    sent as its UTF-8 bytes, escaped). Never raises, whatever the client sent."""
     header = _header(scope, b"authorization")
     if header is not None:
         scheme, _, token = header.partition(b" ")
         return token.strip() if scheme.lower() == b"bearer" else None
     if scope["type"] == "websocket":
-        query = parse_qs(scope.get("query_string", b"").decode("latin-1"))
-        if "token" in query:
-            return str(query["token"][0]).encode("latin-1")
+        for pair in bytes(scope.get("query_string", b"")).split(b"&"):
+            name, _, value = pair.partition(b"=")
+            if unquote_to_bytes(name.replace(b"+", b" ")) == b"token":
+                return unquote_to_bytes(value.replace(b"+", b" "))
     return None
 
 
+def key_bytes(key: str) -> bytes:
+    """The configured key as bytes: UTF-8, and an environment value that was not UTF-8 as the
+    bytes it was (Python decodes the environment with ``surrogateescape``)."""
+    return key.encode("utf-8", "surrogateescape")
+
+
 def key_ok(settings: Settings, scope: Scope) -> bool:
+    """Whether the request carries the API key: the one comparison for HTTP (the middleware and
+    the ``writer`` dependency) and websockets, of bytes with bytes (``compare_digest`` refuses
+    non-ASCII strings, and a header decoded one way and encoded another never matches)."""
     key = settings.api_key
     given = given_key(scope)
-    # Bytes, not str: compare_digest refuses non-ASCII strings.
-    return key is not None and given is not None and secrets.compare_digest(given, key.encode())
+    return key is not None and given is not None and secrets.compare_digest(given, key_bytes(key))
 
 
 def origin_ok(settings: Settings, scope: Scope) -> bool:
@@ -82,7 +92,11 @@ def origin_ok(settings: Settings, scope: Scope) -> bool:
     if origin in settings.allowed_origins or "*" in settings.allowed_origins:
         return True
     host = (_header(scope, b"host") or b"").decode("latin-1")
-    return bool(host) and urlsplit(origin).netloc == host
+    try:
+        netloc = urlsplit(origin).netloc
+    except ValueError:  # e.g. "http://[": not an origin anybody serves, never a 500
+        return False
+    return bool(host) and netloc == host
 
 
 def has_nul(scope: Scope) -> bool:

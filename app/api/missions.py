@@ -120,7 +120,9 @@ async def create_mission(
     timing.lap("accept")  # the body read and validated, the dependencies solved
     check_library(svc, spec)
     check_mission(spec, svc.settings, svc.library)
-    if svc.supervisor.full():  # before the row: never a stored mission that cannot run
+    # A full queue refuses a new mission before any work on it (the intake refuses it too,
+    # and stores nothing); a retried Idempotency-Key is answered by the intake first, full or not.
+    if idempotency_key is None and svc.supervisor.full():
         raise QueueFull()
     request = spec.model_dump(mode="json", by_alias=True)
     timing.lap("validate")

@@ -14,7 +14,6 @@ resources.
 from __future__ import annotations
 
 import asyncio
-import contextlib
 import logging
 import threading
 import time
@@ -64,6 +63,9 @@ class Supervisor:
         self.running: set[str] = set()
         self.cancel_asked: dict[str, float] = {}  # mission -> monotonic time of its cancel
         self.known: set[str] = set()  # submitted, not started yet (bounded by max_queued)
+        # Missions whose end could not be written (the database failed): the reconciliation
+        # ends them with this status and reason once it can, not as "worker lost".
+        self.unended: dict[str, tuple[MissionStatus, str]] = {}
         self.lock = threading.RLock()
         self.loop: asyncio.AbstractEventLoop | None = None
         self.queue: asyncio.Queue[str] | None = None
@@ -125,6 +127,10 @@ class Supervisor:
     def full(self) -> bool:
         """Whether a new mission would exceed ``max_queued`` waiting missions."""
         return len(self.known) >= self.settings.max_queued
+
+    def room(self) -> int:
+        """How many more missions may wait now (``max_queued`` less those waiting)."""
+        return max(0, self.settings.max_queued - len(self.known))
 
     def warmth(self) -> tuple[int, int]:
         """(workers warm now, workers in the pool): a worker is warm once its warm-up ended
@@ -294,8 +300,14 @@ class Supervisor:
             else:
                 reason = f"server error ({type(exc).__name__})"
             self._replace(worker)  # nobody reads that mission's messages any more: stop it
-            with contextlib.suppress(Exception):  # the database may still be down: reconciled
+            try:
                 self.relay.end(mission_id, MissionStatus.FAILED, reason, None)
+            except Exception:  # the database may still be down: reconciled, with this reason
+                log.warning(
+                    "mission %s: its end could not be written; reconciled later", mission_id
+                )
+                with self.lock:
+                    self.unended[mission_id] = (MissionStatus.FAILED, reason)
         finally:
             with self.lock:
                 self.running.discard(mission_id)
