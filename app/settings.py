@@ -70,6 +70,8 @@ class Settings(BaseModel):
     ws_queue: int = Field(
         256, ge=8, le=100_000
     )  # undeliverable event frames before a client is dropped
+    # Processes validating request bodies (and running POST /simulate) off the event loop.
+    validation_workers: int = Field(default_factory=lambda: min(cores(), 2), ge=1, le=64)
 
     @field_validator("allowed_origins", mode="before")
     @classmethod

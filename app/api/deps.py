@@ -16,6 +16,7 @@ from app.service.intake import Intake
 from app.service.jobs import Jobs
 from app.service.metrics import Metrics
 from app.service.supervisor import Supervisor
+from app.service.validation import Validation
 from app.settings import Settings
 from app.store.repo import Store
 from primitives.library import Library
@@ -33,6 +34,7 @@ class Services:
     library_version: str
     snapshots: CapacityLimiter  # bounds the websocket snapshots built at once
     intake: Intake  # stores and queues posted missions, in batches
+    validation: Validation  # request bodies validated (and /simulate run) off the event loop
 
 
 # The dependencies are ``async``: FastAPI runs a plain ``def`` dependency in its thread pool,

@@ -7,9 +7,10 @@ from fastapi import APIRouter, Depends, Response
 from app.api.deps import JobId, Svc, writer
 from app.api.errors import ApiError, responses
 from app.api.schemas import JobOut, LearnIn
+from app.api.validated import ValidatedRoute
 from app.store.models import JobRow
 
-router = APIRouter(tags=["jobs"])
+router = APIRouter(tags=["jobs"], route_class=ValidatedRoute)  # bodies off the loop
 
 
 def job_out(row: JobRow) -> JobOut:

@@ -20,6 +20,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 from app.api.errors import problem
 from app.missions.spec import MissionSpec
 from app.service.supervisor import QueueFull
+from app.service.validation import ValidationUnavailable
 from app.settings import Settings
 from primitives.library import Library
 from primitives.shapes import classify_shape
@@ -197,12 +198,19 @@ def invalid(field: str, message: str) -> NoReturn:
 
 
 def install(app: FastAPI) -> None:
-    """A full queue is a 503 with Retry-After, never a 500."""
+    """A full queue and unavailable validation processes are a 503 with Retry-After, never a
+    500."""
 
-    async def _busy(_: Request, exc: Exception) -> JSONResponse:
-        detail = "too many missions are waiting; retry later"
+    def busy(detail: str) -> JSONResponse:
         response = problem(503, detail)
         response.headers["Retry-After"] = str(BUSY_RETRY_AFTER)
         return response
 
+    async def _busy(_: Request, exc: Exception) -> JSONResponse:
+        return busy("too many missions are waiting; retry later")
+
+    async def _no_validation(_: Request, exc: Exception) -> JSONResponse:
+        return busy("requests cannot be validated now (the validation processes failed)")
+
     app.add_exception_handler(QueueFull, _busy)
+    app.add_exception_handler(ValidationUnavailable, _no_validation)

@@ -23,12 +23,13 @@ from app.api.schemas import (
     TrajectoryOut,
     TransitionOut,
 )
+from app.api.validated import ValidatedRoute
 from app.missions.spec import MissionSpec
 from app.missions.status import TERMINAL, MissionStatus
 from app.service.supervisor import QueueFull
 from app.store.models import MissionRow
 
-router = APIRouter(tags=["missions"])
+router = APIRouter(tags=["missions"], route_class=ValidatedRoute)  # bodies off the loop
 
 
 def resource(

@@ -19,12 +19,13 @@ from app.api.deps import MissionId, Services, Svc, writer
 from app.api.errors import ApiError, responses
 from app.api.missions import found
 from app.api.schemas import GoalAdd, ObstacleAdd, UpdateOut
+from app.api.validated import ValidatedRoute
 from app.missions.spec import MissionSpec
 from app.missions.status import TERMINAL, MissionStatus
 from app.service.messages import AddGoal, AddObstacle, Pause, RemoveGoal, Resume, Update
 from app.store.models import MissionRow
 
-router = APIRouter(tags=["missions"])
+router = APIRouter(tags=["missions"], route_class=ValidatedRoute)  # bodies off the loop
 WRITE: dict[str, Any] = {
     "status_code": 202,
     "response_model": UpdateOut,

@@ -80,6 +80,10 @@ class Intake:
                         done.set_exception(QueueFull())
                     else:
                         done.set_result(result)
+                    # One post answered per turn of the event loop: a batch of large missions
+                    # (each answer is its whole request, serialized) would otherwise hold the
+                    # loop for all of their answers at once, and every other request with it.
+                    await asyncio.sleep(0)
         finally:
             self.writer = None
 

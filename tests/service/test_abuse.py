@@ -6,6 +6,7 @@ whose end cannot be written. Each test failed before the change it holds."""
 from __future__ import annotations
 
 import json
+import math
 import os
 import shutil
 import threading
@@ -17,11 +18,13 @@ from pathlib import Path
 import pytest
 import uvicorn
 from fastapi import FastAPI
+from pydantic import ValidationError
 from sqlalchemy import text
 from starlette.websockets import WebSocketDisconnect
 from websockets.sync.client import connect
 
 from app.main import create_app
+from app.missions.spec import MissionSpec
 from app.missions.status import MissionStatus
 from app.service.hub import Hub
 from app.service.messages import Ended, Publish, Transition
@@ -30,6 +33,7 @@ from app.service.relay import Relay
 from app.settings import Settings
 from app.store.db import make_engine, migrate
 from app.store.repo import Store
+from sim.obstacles import Polygon
 from tests.service.test_limits import GOAL, SLOW, app_client, wait_status
 from tests.service.test_readiness import wait_ready
 from tests.service.test_server import free_port
@@ -260,3 +264,58 @@ def test_a_mission_failed_by_a_database_fault_ends_as_a_database_error(tmp_path:
         m = wait_status(c, mission, TERMINAL, timeout=20)
         assert m["status"] == "failed"
         assert m["reason"].startswith("database error"), m["reason"]  # was "worker lost"
+
+
+# -- 1: no request is validated on the event loop ---------------------------------------------------
+def costly(goals: int, polygons: int, bad: bool) -> dict:
+    """Goals against many 64-point polygons: the goal checks cost goals x polygons x points
+    (50 x 200 took 1.4 s); ``bad``: the last goal too close to a polygon."""
+    rings = []
+    for k in range(polygons):
+        cx, cy = -9 + (k % 20) * 0.9, 2 + (k // 20) * 0.75
+        points = [
+            [
+                round(cx + 0.2 * math.cos(2 * math.pi * i / 64), 6),
+                round(cy + 0.2 * math.sin(2 * math.pi * i / 64), 6),
+            ]
+            for i in range(64)
+        ]
+        rings.append({"type": "polygon", "points": points})
+    targets = [{"x": -9 + (i % 10) * 1.8, "y": -9 + (i // 10) * 1.5} for i in range(goals)]
+    if bad:
+        targets[-1] = {"x": -9.0, "y": 2.22}  # 0.02 m from the first polygon
+    bounds = {"xmin": -10, "xmax": 10, "ymin": -10, "ymax": 10}
+    return {"name": "costly", "goals": targets, "obstacles": rings, "bounds": bounds}
+
+
+def counted_here(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """Calls of the costly geometry (a goal's reach against each polygon) made in this, the
+    server's, process; the validation pool's processes are not counted."""
+    calls: list[str] = []
+    real = Polygon.segment_clearance
+
+    def counted(self: Polygon, a: object, b: object) -> object:
+        calls.append("here")
+        return real(self, a, b)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(Polygon, "segment_clearance", counted)
+    return calls
+
+
+def test_bodies_are_validated_off_the_event_loop(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    calls = counted_here(monkeypatch)
+    bad = costly(5, 20, bad=True)
+    with pytest.raises(ValidationError) as expected:  # what validation in process says
+        MissionSpec.model_validate(bad)
+    calls.clear()
+    with app_client(tmp_path, max_running=1, warm_up=False) as c:
+        r = c.post("/missions", json=bad)
+        assert r.status_code == 422 and r.json()["field"] == "goals.4"
+        # the answer validation in process gives, word for word
+        assert r.json()["detail"] == f"goals.4: {expected.value.errors()[0]['msg']}"
+        ok = c.post("/missions", json={**costly(5, 20, bad=False), "speed": 1})
+        assert ok.status_code == 201, ok.text
+        assert calls == []  # was one per goal and obstacle, on the event loop
+        c.post(f"/missions/{ok.json()['id']}/cancel")
