@@ -33,6 +33,7 @@ from app.api.server_timing import ServerTiming
 from app.service.hub import Hub
 from app.service.intake import Intake
 from app.service.jobs import Jobs
+from app.service.live import LiveUpdates
 from app.service.metrics import Metrics
 from app.service.supervisor import Supervisor
 from app.service.validation import Validation
@@ -59,7 +60,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         metrics = Metrics()
         hub = Hub(config.ws_queue)
         supervisor = Supervisor(store, library, hub, config, metrics)
-        learning = Jobs(store, metrics)
+        learning = Jobs(store, metrics, max_queued=config.max_queued_jobs)
         # FastAPI's thread pool (sync routes and dependencies, run_in_threadpool) is anyio's
         # default limiter, per event loop: sized here, once the loop runs.
         to_thread.current_default_thread_limiter().total_tokens = config.api_threads
@@ -78,6 +79,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             snapshots,
             Intake(store, supervisor, metrics, config.post_batch),
             validation,
+            LiveUpdates(store, supervisor, validation, config),
         )
         await supervisor.start()
         # What the server holds from start to end (the library, the app's models, the ORM's

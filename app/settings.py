@@ -9,6 +9,8 @@ from typing import Literal
 
 from pydantic import BaseModel, Field, field_validator
 
+from app.missions.parts import MAX_GOALS
+
 
 def default_data_dir() -> Path:
     """Where the service keeps its files unless told: ``$XDG_DATA_HOME/screwsnake`` (by default
@@ -70,6 +72,12 @@ class Settings(BaseModel):
     ws_queue: int = Field(
         256, ge=8, le=100_000
     )  # undeliverable event frames before a client is dropped
+    # Goals a mission may have, posted and added live (removed ones count: indices stay).
+    max_goals: int = Field(MAX_GOALS, ge=1, le=MAX_GOALS)
+    # Known obstacles added live to one running mission.
+    max_live_obstacles: int = Field(200, ge=0, le=10_000)
+    # Learning jobs waiting for the learner; beyond, POST /jobs/learn is 503 with Retry-After.
+    max_queued_jobs: int = Field(16, ge=0, le=100_000)
     # Processes validating request bodies (and running POST /simulate) off the event loop.
     validation_workers: int = Field(default_factory=lambda: min(cores(), 2), ge=1, le=64)
 

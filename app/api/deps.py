@@ -14,6 +14,7 @@ from app.api.limits import key_ok
 from app.service.hub import Hub
 from app.service.intake import Intake
 from app.service.jobs import Jobs
+from app.service.live import LiveUpdates
 from app.service.metrics import Metrics
 from app.service.supervisor import Supervisor
 from app.service.validation import Validation
@@ -34,7 +35,8 @@ class Services:
     library_version: str
     snapshots: CapacityLimiter  # bounds the websocket snapshots built at once
     intake: Intake  # stores and queues posted missions, in batches
-    validation: Validation  # request bodies validated (and /simulate run) off the event loop
+    validation: Validation  # request bodies (and live updates) validated off the event loop
+    live: LiveUpdates  # the rules of live updates of running missions
 
 
 # The dependencies are ``async``: FastAPI runs a plain ``def`` dependency in its thread pool,

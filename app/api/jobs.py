@@ -31,7 +31,7 @@ def job_out(row: JobRow) -> JobOut:
     status_code=202,
     response_model=JobOut,
     dependencies=[Depends(writer)],
-    responses=responses(401, 422),
+    responses=responses(401, 422, 503),
 )
 def start_learning(body: LearnIn, response: Response, svc: Svc) -> JobOut:
     job_id = svc.jobs.start(body.model_dump(mode="json"))

@@ -19,6 +19,8 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from app.api.errors import problem
 from app.missions.spec import MissionSpec
+from app.service.jobs import JobsFull
+from app.service.live import Refused
 from app.service.supervisor import QueueFull
 from app.service.validation import ValidationUnavailable
 from app.settings import Settings
@@ -165,8 +167,14 @@ class RequestGuard:
 
 
 def check_mission(spec: MissionSpec, settings: Settings, library: Library) -> None:
-    """What depends on the server: its library covers the body shape (422 naming ``shape``),
-    and the speed fits its wall-clock limit (422 naming ``speed``)."""
+    """What depends on the server: at most ``max_goals`` goals (422 naming ``goals``), its
+    library covers the body shape (422 naming ``shape``), and the speed fits its wall-clock
+    limit (422 naming ``speed``)."""
+    if len(spec.goals) > settings.max_goals:
+        invalid(
+            "goals",
+            f"{len(spec.goals)} goals, at most {settings.max_goals} (SCREWSNAKE_MAX_GOALS)",
+        )
     if spec.goals and spec.planner.domain == "navigation":
         shape = spec.shape_name()
         if shape == "custom":  # the spec made sure it classifies
@@ -198,8 +206,8 @@ def invalid(field: str, message: str) -> NoReturn:
 
 
 def install(app: FastAPI) -> None:
-    """A full queue and unavailable validation processes are a 503 with Retry-After, never a
-    500."""
+    """A full queue (missions or learning jobs) and unavailable validation processes are a 503
+    with Retry-After, never a 500; a refused live update is its own problem (404, 409, 422)."""
 
     def busy(detail: str) -> JSONResponse:
         response = problem(503, detail)
@@ -209,8 +217,17 @@ def install(app: FastAPI) -> None:
     async def _busy(_: Request, exc: Exception) -> JSONResponse:
         return busy("too many missions are waiting; retry later")
 
+    async def _jobs_busy(_: Request, exc: Exception) -> JSONResponse:
+        return busy("too many learning jobs are waiting; retry later")
+
     async def _no_validation(_: Request, exc: Exception) -> JSONResponse:
         return busy("requests cannot be validated now (the validation processes failed)")
 
+    async def _refused(_: Request, exc: Exception) -> JSONResponse:
+        assert isinstance(exc, Refused)
+        return problem(exc.status, exc.detail, exc.field)
+
     app.add_exception_handler(QueueFull, _busy)
+    app.add_exception_handler(JobsFull, _jobs_busy)
     app.add_exception_handler(ValidationUnavailable, _no_validation)
+    app.add_exception_handler(Refused, _refused)

@@ -35,12 +35,17 @@ router = APIRouter(tags=["missions"], route_class=ValidatedRoute)  # bodies off 
 def resource(
     svc: Services, row: MissionRow, transitions: list[TransitionOut] | None = None
 ) -> MissionOut:
-    """The mission as the API shows it; ``transitions`` when known (else read)."""
+    """The mission as the API shows it; ``transitions`` when known (else read). A running
+    mission's goals are its live account's (``app.service.live``: added and removed ones
+    included at once), not the state its worker last saved."""
     state = row.state or {}
     spec_goals = row.request.get("goals", [])
-    goals = state.get("goals") or [
-        {"x": g["x"], "y": g["y"], "tolerance": g.get("tolerance", 0.1)} for g in spec_goals
-    ]
+    goals = svc.supervisor.live_goals(row.id) if row.status not in TERMINAL else None
+    goals = (
+        goals
+        or state.get("goals")
+        or [{"x": g["x"], "y": g["y"], "tolerance": g.get("tolerance", 0.1)} for g in spec_goals]
+    )
     start = row.request.get("start", {})
     pose = state.get("pose") or {
         "x": start.get("x", 0.0),

@@ -25,7 +25,8 @@ from sqlalchemy.exc import SQLAlchemyError
 from app.missions.status import TERMINAL, MissionStatus
 from app.service.frames import EndFrame, StatusEvent
 from app.service.hub import Hub
-from app.service.messages import Job, Update
+from app.service.live import LiveMission
+from app.service.messages import Ended, Job, Update
 from app.service.metrics import Metrics
 from app.service.pool import Worker, WorkerLost, make_workers
 from app.service.reconcile import reconcile
@@ -57,9 +58,13 @@ class Supervisor:
         self.store, self.library, self.hub = store, library, hub
         self.settings, self.metrics = settings, metrics
         self.relay = Relay(store, hub, settings, metrics)
+        self.relay.on_status = self._status_stored
         self.workers: list[Worker] = []  # the pool, started with the service
         self.pool = ThreadPoolExecutor(settings.max_running, thread_name_prefix="mission")
         self.assigned: dict[str, Worker] = {}  # running mission -> its worker
+        # Running mission -> the server's account of its goals, live obstacles and pause
+        # (``app.service.live``): the one owner the live-update routes read and change.
+        self.live: dict[str, LiveMission] = {}
         self.running: set[str] = set()
         self.cancel_asked: dict[str, float] = {}  # mission -> monotonic time of its cancel
         self.known: set[str] = set()  # submitted, not started yet (bounded by max_queued)
@@ -217,6 +222,9 @@ class Supervisor:
                 return False
             started = mission_id in self.running
             if started:
+                live = self.live.get(mission_id)
+                if live is not None:  # no live update applies from now on
+                    live.stopping = "cancelling"
                 self.cancel_asked.setdefault(mission_id, time.monotonic())
                 worker = self.assigned.get(mission_id)
                 if worker is not None:  # else _work passes it on when the worker has begun
@@ -245,6 +253,17 @@ class Supervisor:
                 mission_id, EndFrame(type="end", status=MissionStatus.CANCELLED, reason=reason)
             )
         return True
+
+    def _status_stored(self, mission_id: str, status: MissionStatus) -> None:
+        """A status change was stored: the live account follows it."""
+        live = self.live.get(mission_id)
+        if live is not None:
+            live.status = status
+
+    def live_goals(self, mission_id: str) -> list[dict[str, Any]] | None:
+        """A running mission's goals as its live account has them (None: not running)."""
+        live = self.live.get(mission_id)
+        return live.goals_now() if live is not None else None
 
     def publish_end(self, mission_id: str) -> None:
         """Tell websocket clients a mission ended (as the store now says)."""
@@ -288,8 +307,11 @@ class Supervisor:
                 worker.begin(job)
             with self.lock:
                 self.assigned[mission_id] = worker
+                live = LiveMission.of(mission_id, row.request)
                 if mission_id in self.cancel_asked:
                     worker.cancel()
+                    live.stopping = "cancelling"
+                self.live[mission_id] = live
             self._execute(mission_id, worker)
         except Exception as exc:  # never leave a mission active: fail it with the reason
             log.exception("mission %s failed unexpectedly", mission_id)
@@ -312,6 +334,9 @@ class Supervisor:
             with self.lock:
                 self.running.discard(mission_id)
                 self.assigned.pop(mission_id, None)
+                gone = self.live.pop(mission_id, None)
+                if gone is not None:
+                    gone.stopping = "ended"
                 self.cancel_asked.pop(mission_id, None)
                 self.relay.trees.pop(mission_id, None)
             self.metrics.running.dec()
@@ -324,18 +349,23 @@ class Supervisor:
         while True:
             stop = self._overdue(mission_id, started, wall_limit)
             if stop is not None:
-                self.relay.end(mission_id, *stop, None)
+                self.relay.end(mission_id, *stop, None, self.live_goals(mission_id))
                 self._replace(worker)
                 return
             poll = CANCEL_POLL_SECONDS if mission_id in self.cancel_asked else POLL_SECONDS
             try:
                 batch = worker.messages(poll)
             except WorkerLost as exc:
-                self.relay.end(mission_id, MissionStatus.FAILED, str(exc), None)
+                goals = self.live_goals(mission_id)
+                self.relay.end(mission_id, MissionStatus.FAILED, str(exc), None, goals)
                 self._replace(worker)
                 return
+            live = self.live.get(mission_id)
             for message in batch:
-                if self.relay.handle(mission_id, message):
+                if live is not None:
+                    live.observe(message)  # what the worker says of its goals, before relaying
+                goals = self.live_goals(mission_id) if isinstance(message, Ended) else None
+                if self.relay.handle(mission_id, message, goals):
                     return
 
     def _replace(self, worker: Worker) -> None:

@@ -23,7 +23,7 @@ import py_trees
 
 from app.executor.runner import MissionError, MissionRunner, UpdateRefused
 from app.executor.warm import unfreeze_mission
-from app.missions.spec import MissionSpec
+from app.missions.spec import MissionSpec, body_overlap
 from app.missions.status import MissionStatus
 from app.service.messages import (
     AddGoal,
@@ -175,15 +175,40 @@ def news(runner: MissionRunner, events_sent: int, versions: int) -> list[WorkerM
     return out
 
 
+def last_open_goal(runner: MissionRunner, index: int) -> bool:
+    """Whether goal ``index`` is the only goal neither reached nor removed."""
+    goals = runner.ctx.goals
+    others = (g for i, g in enumerate(goals) if i != index and not (g.reached or g.removed))
+    return 0 <= index < len(goals) and not goals[index].reached and next(others, None) is None
+
+
 def apply_update(runner: MissionRunner, update: Update) -> list[WorkerMessage]:
-    """Apply a live update to the runner; the status change it causes, if any."""
+    """Apply a live update to the runner; the status change it causes, if any. The server
+    checked it against its account of the mission; what changed since (a goal reached, the
+    robot moved) is checked again here, and an update that no longer applies is refused with
+    an ``update`` event: it never ends the mission (a removed last goal would end it
+    ``succeeded`` with nothing reached, an obstacle on the body in a false ``unreachable``)."""
     try:
         if isinstance(update, AddGoal):
-            runner.add_goal(update.x, update.y, update.tolerance)
+            index = runner.add_goal(update.x, update.y, update.tolerance)
+            if 0 <= update.index != index:  # the server's account and the runner disagree
+                detail = {"answered": update.index, "index": index}
+                runner.ctx.event("update", update="add_goal index differs", detail=detail)
         elif isinstance(update, RemoveGoal):
+            if last_open_goal(runner, update.index):
+                raise UpdateRefused(
+                    f"goal {update.index} is the last goal not reached: cancel the mission instead"
+                )
             runner.remove_goal(update.index)
         elif isinstance(update, AddObstacle):
-            runner.add_obstacle(obstacle_from_dict(update.obstacle))
+            obstacle = obstacle_from_dict(update.obstacle)
+            ctx = runner.ctx
+            overlap = body_overlap(
+                ctx.spec.bounds.bounds(), [obstacle], ctx.pose, ctx.sensed_joints()
+            )
+            if overlap is not None:
+                raise UpdateRefused("the obstacle overlaps the robot's body where it is now")
+            runner.add_obstacle(obstacle)
         elif isinstance(update, Pause):
             runner.pause()
             return [Transition(MissionStatus.PAUSED, "pause requested", mission_state(runner))]
