@@ -17,6 +17,7 @@ import socket
 import threading
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any, Protocol
 
 import py_trees
@@ -43,6 +44,8 @@ from app.service.messages import (
     Update,
     WorkerMessage,
 )
+from domain.navigation import planner as navigation_planner
+from domain.navigation.lattice import cache as motion_cache
 from primitives.library import Library
 from sim.obstacles import obstacle_from_dict
 
@@ -116,6 +119,26 @@ STATE_SAVE_SECONDS = 1.0  # wall seconds between state writes of a running missi
 PAUSED_POLL_SECONDS = 0.05  # how often a paused mission looks for resume or cancel
 EVENTS_KEPT = 1000  # events kept in a mission's stored state (the newest)
 PACE_SLICE = 0.25  # longest wait while pacing: cancels and the wall clock are checked between
+
+
+# The planner's motion caches kept between replans, per process: the share of a worker's memory
+# limit (``SCREWSNAKE_WORKER_MEMORY``) they may take together, and the bytes a state's row holds.
+CACHE_SHARE = 0.5  # (the default limit keeps the planner's own default)
+ROW_BYTES = 200  # a state's row in one part (``domain.navigation.lattice.cache``, ~200 B)
+# The planner's own limit (what a worker with memory to spare keeps), read before any sizing.
+DEFAULT_ROWS = motion_cache.ROWS_LIMIT
+
+
+def budget_caches(memory: int) -> int:
+    """Size the planner's motion caches in this process to ``memory`` bytes (the worker's
+    limit): never above their default, which fits the default limit; a smaller limit gets
+    smaller caches (each of ``CACHES_KEPT`` caches keeps two parts of rows), so that a mission
+    staying within it is not ended by what the planner merely remembers. Returns the rows each
+    part may keep."""
+    parts = 2 * navigation_planner.CACHES_KEPT
+    rows = max(1000, min(DEFAULT_ROWS, int(memory * CACHE_SHARE) // (parts * ROW_BYTES)))
+    motion_cache.ROWS_LIMIT = rows
+    return rows
 
 
 def mission_state(runner: MissionRunner) -> dict[str, Any]:
@@ -234,6 +257,18 @@ def watch_server(server_pid: int, period: float = 1.0) -> None:
             os._exit(3)
 
 
+def resident_bytes(pid: int | None = None) -> int | None:
+    """A process's resident memory (RSS) in bytes, this one's by default; None if unknown."""
+    try:
+        fields = Path(f"/proc/{pid or 'self'}/statm").read_text().split()
+        return int(fields[1]) * PAGE_SIZE
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+PAGE_SIZE = os.sysconf("SC_PAGE_SIZE") if hasattr(os, "sysconf") else 4096
+
+
 def where() -> str:
     """This worker, as the ``planning`` transition names it: which process on which host."""
     return f"worker pid {os.getpid()} on {socket.gethostname()}"
@@ -269,15 +304,19 @@ def serve_missions(
     niceness: int = 10,
     warm: WarmUp | None = None,
     warmed: Flag | None = None,
+    memory: int | None = None,
 ) -> None:
-    """A pool process's target: warm up (``warm``, if any), raise ``warmed``, then run each
-    job as it comes until None (or the server is gone)."""
+    """A pool process's target: size the planner's caches to ``memory`` (its limit), warm up
+    (``warm``, if any), raise ``warmed``, then run each job as it comes until None (or the
+    server is gone)."""
     threading.Thread(
         target=watch_server, args=(server_pid,), daemon=True, name="watch-server"
     ).start()
     if niceness:
         with contextlib.suppress(OSError):
             os.nice(niceness)  # the API process keeps priority: requests stay fast under load
+    if memory is not None:
+        budget_caches(memory)
     if warm is not None:
         warm(library)  # kernels and motion tables loaded before the first mission comes
     if warmed is not None:

@@ -1,7 +1,8 @@
 """Issue 29, tried as an adversary would: a cancelled mission that runs again, API keys outside
 ASCII, a database file deleted under the server, an idempotent replay while the queue is full,
 websocket clients that open and leave by the thousand or send JSON nested too deep, a mission
-whose end cannot be written. Each test failed before the change it holds."""
+whose end cannot be written, a worker past its memory, a shutdown with a worker stuck in native
+code, a body that takes seconds to validate. Each test failed before the change it holds."""
 
 from __future__ import annotations
 
@@ -26,10 +27,12 @@ from websockets.sync.client import connect
 from app.main import create_app
 from app.missions.spec import MissionSpec
 from app.missions.status import MissionStatus
+from app.service import supervisor
 from app.service.hub import Hub
 from app.service.messages import Ended, Publish, Transition
 from app.service.metrics import Metrics
 from app.service.relay import Relay
+from app.service.worker import budget_caches
 from app.settings import Settings
 from app.store.db import make_engine, migrate
 from app.store.repo import Store
@@ -264,6 +267,99 @@ def test_a_mission_failed_by_a_database_fault_ends_as_a_database_error(tmp_path:
         m = wait_status(c, mission, TERMINAL, timeout=20)
         assert m["status"] == "failed"
         assert m["reason"].startswith("database error"), m["reason"]  # was "worker lost"
+
+
+# -- 12: worker memory is capped; shutdown is bounded -----------------------------------------------
+def test_a_worker_over_its_memory_limit_fails_its_mission_and_is_replaced(tmp_path: Path) -> None:
+    # 64 MB: below any worker's own size (numpy, scipy, the planner), so past it at once.
+    with app_client(tmp_path, max_running=1, warm_up=False, worker_memory="64M") as c:
+        workers = c.app.state.services.supervisor.workers  # type: ignore[attr-defined]
+        first = workers[0].pid
+        m = c.post("/missions", json=GOAL).json()
+        m = wait_status(c, m["id"], TERMINAL, timeout=30)
+        assert m["status"] == "failed", m["reason"]  # was "succeeded": no limit but time
+        assert m["reason"].startswith("memory limit: the worker used ")
+        assert "SCREWSNAKE_WORKER_MEMORY (64 MB)" in m["reason"]
+        deadline = time.monotonic() + 10  # (ended first, then replaced)
+        while workers[0].pid == first and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert workers[0].pid != first  # replaced
+        again = wait_status(c, c.post("/missions", json=GOAL).json()["id"], TERMINAL, timeout=30)
+        assert again["reason"].startswith("memory limit")
+
+
+def test_the_planner_caches_are_sized_by_the_worker_memory() -> None:
+    from domain.navigation.lattice import cache
+
+    before = cache.ROWS_LIMIT
+    try:
+        small = budget_caches(256 << 20)
+        assert small == cache.ROWS_LIMIT < before  # a part of 16 keeps 40,000 rows, not 1,000,000
+        made = cache.MotionCache.__init__.__defaults__  # the limit is read when a cache is made
+        assert made == (None,)
+        assert budget_caches(64 << 30) == before  # plenty: the planner's own limit, never more
+    finally:
+        cache.ROWS_LIMIT = before
+
+
+class StuckWorker:
+    """A pool slot whose worker hangs in native code: it takes a mission, then no call on it
+    returns (not even a kill) until ``release`` is set."""
+
+    def __init__(self, release: threading.Event) -> None:
+        self.release, self.pid = release, None
+
+    def begin(self, job: object) -> None:
+        pass
+
+    def messages(self, timeout: float) -> list:
+        self.release.wait()
+        return []
+
+    def cancel(self) -> None:
+        pass
+
+    def update(self, mission_id: str, update: object) -> None:
+        pass
+
+    def alive(self) -> bool:
+        return True
+
+    def memory(self) -> int | None:
+        return None
+
+    def warm(self) -> bool:
+        return True
+
+    def restart(self) -> None:
+        self.release.wait()
+
+    def stop(self, timeout: float = 5.0) -> None:
+        self.release.wait()
+
+
+def test_shutdown_is_bounded_with_a_worker_stuck_in_native_code(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    release = threading.Event()
+    monkeypatch.setattr(supervisor, "make_workers", lambda s, lib: [StuckWorker(release)])
+    c = app_client(tmp_path, max_running=1, shutdown_seconds=2)
+    c.__enter__()
+    try:
+        mission = c.post("/missions", json=GOAL).json()["id"]
+        deadline = time.monotonic() + 10
+        services = c.app.state.services  # type: ignore[attr-defined]
+        while mission not in services.supervisor.assigned and time.monotonic() < deadline:
+            time.sleep(0.02)
+        stopper = threading.Thread(target=c.__exit__, args=(None, None, None), daemon=True)
+        started = time.monotonic()
+        stopper.start()
+        stopper.join(timeout=30)
+        took = time.monotonic() - started
+        assert not stopper.is_alive(), "the shutdown hung"  # was: waited for the stuck thread
+        assert took < 2 + 3, took
+    finally:
+        release.set()  # the stuck calls return: nothing is left running after the test
 
 
 # -- 1: no request is validated on the event loop ---------------------------------------------------
