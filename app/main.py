@@ -33,8 +33,10 @@ from app.api.server_timing import ServerTiming
 from app.service.hub import Hub
 from app.service.intake import Intake
 from app.service.jobs import Jobs
+from app.service.live import LiveUpdates
 from app.service.metrics import Metrics
 from app.service.supervisor import Supervisor
+from app.service.validation import Validation
 from app.settings import Settings, missing_extra
 from app.store.db import make_engine, migrate
 from app.store.repo import Store
@@ -65,11 +67,13 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         metrics = Metrics()
         hub = Hub(config.ws_queue)
         supervisor = Supervisor(store, library, hub, config, metrics)
-        learning = Jobs(store, metrics)
+        learning = Jobs(store, metrics, max_queued=config.max_queued_jobs)
         # FastAPI's thread pool (sync routes and dependencies, run_in_threadpool) is anyio's
         # default limiter, per event loop: sized here, once the loop runs.
         to_thread.current_default_thread_limiter().total_tokens = config.api_threads
         snapshots = CapacityLimiter(config.ws_snapshot_threads)
+        validation = Validation(config.validation_workers, config.worker_nice)
+        await to_thread.run_sync(validation.start)  # processes started before any request
         app.state.services = Services(
             config,
             store,
@@ -81,6 +85,8 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             version[:12],
             snapshots,
             Intake(store, supervisor, metrics, config.post_batch),
+            validation,
+            LiveUpdates(store, supervisor, validation, config),
         )
         await supervisor.start()
         # What the server holds from start to end (the library, the app's models, the ORM's
@@ -94,6 +100,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
             gc.unfreeze()  # (an app started and stopped inside a longer process: tests)
             await supervisor.stop()
             learning.stop()
+            await to_thread.run_sync(validation.stop)
             engine.dispose()
 
     # Swagger UI and ReDoc from the installed fastapi-offline package: the docs work offline.

@@ -8,7 +8,9 @@ from functools import cache
 from pathlib import Path
 from typing import Literal
 
-from pydantic import BaseModel, Field, field_validator
+from pydantic import BaseModel, Field, field_validator, model_validator
+
+from app.missions.parts import MAX_GOALS
 
 
 def default_data_dir() -> Path:
@@ -24,6 +26,40 @@ def cores() -> int:
         return max(1, len(os.sched_getaffinity(0)))
     except AttributeError:  # not Linux
         return max(1, os.cpu_count() or 1)
+
+
+def machine_memory() -> int:
+    """This machine's physical memory in bytes (0 when it cannot be told)."""
+    try:
+        return int(os.sysconf("SC_PHYS_PAGES")) * int(os.sysconf("SC_PAGE_SIZE"))
+    except (AttributeError, OSError, ValueError):
+        return 0
+
+
+MEMORY_SHARE = 0.8  # of the machine's memory, shared by the workers and the server process
+MIN_WORKER_MEMORY = 64 << 20  # the least SCREWSNAKE_WORKER_MEMORY may be (tests go this low)
+DEFAULT_MIN_WORKER_MEMORY = 1 << 30  # the default is at least this (a warm worker is ~0.3 GB)
+UNITS = {"": 1, "k": 1 << 10, "m": 1 << 20, "g": 1 << 30, "t": 1 << 40}
+
+
+def default_worker_memory(workers: int) -> int:
+    """A worker's share: ``MEMORY_SHARE`` of the machine split between the workers and the
+    server, at least ``DEFAULT_MIN_WORKER_MEMORY``."""
+    share = int(MEMORY_SHARE * machine_memory() / (workers + 1))
+    return max(DEFAULT_MIN_WORKER_MEMORY, share)
+
+
+def parse_bytes(value: object) -> object:
+    """``2G``, ``1500M``, ``512MiB``, ``1073741824``: bytes (binary units)."""
+    if not isinstance(value, str):
+        return value
+    text = value.strip().lower().removesuffix("ib").removesuffix("b")
+    number = text.rstrip("kmgt")
+    unit = text[len(number) :]
+    try:
+        return int(float(number) * UNITS[unit])
+    except (KeyError, ValueError):
+        return value  # pydantic says what is wrong with it
 
 
 class Settings(BaseModel):
@@ -71,6 +107,38 @@ class Settings(BaseModel):
     ws_queue: int = Field(
         256, ge=8, le=100_000
     )  # undeliverable event frames before a client is dropped
+    # Goals a mission may have, posted and added live (removed ones count: indices stay).
+    max_goals: int = Field(MAX_GOALS, ge=1, le=MAX_GOALS)
+    # Known obstacles added live to one running mission.
+    max_live_obstacles: int = Field(200, ge=0, le=10_000)
+    # Learning jobs waiting for the learner; beyond, POST /jobs/learn is 503 with Retry-After.
+    max_queued_jobs: int = Field(16, ge=0, le=100_000)
+    # RSS bytes a mission worker (or Ray actor) may use: past it the mission ends failed
+    # (memory limit) and the worker is replaced; the planner's caches are sized by it.
+    # None: the default, a share of the machine (``default_worker_memory``).
+    worker_memory: int | None = Field(None, ge=MIN_WORKER_MEMORY, le=1 << 50)
+    # Seconds the service's shutdown may take: running missions are asked to stop, then their
+    # workers are killed, stuck or not.
+    shutdown_seconds: float = Field(10.0, gt=0, le=3600)
+    # Processes validating request bodies and live updates (and running POST /simulate) off
+    # the event loop.
+    validation_workers: int = Field(default_factory=lambda: min(cores(), 2), ge=1, le=64)
+
+    @field_validator("worker_memory", mode="before")
+    @classmethod
+    def _bytes(cls, value: object) -> object:
+        return parse_bytes(value)
+
+    @model_validator(mode="after")
+    def _worker_share(self) -> Settings:
+        if self.worker_memory is None:
+            self.worker_memory = default_worker_memory(self.max_running)
+        return self
+
+    @property
+    def worker_memory_bytes(self) -> int:
+        """``worker_memory``, filled in (never None once validated)."""
+        return self.worker_memory or default_worker_memory(self.max_running)
 
     @field_validator("allowed_origins", mode="before")
     @classmethod

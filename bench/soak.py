@@ -3,7 +3,20 @@ invalid, oversized, slow and planning-heavy missions, cancels, SIGKILLed mission
 websocket churn. Prints requests by status, missions by terminal status and reason, stuck
 missions (must be 0), 5xx answers (must be 0) and the server's RSS at start and end.
 
-Only 127.0.0.1 is contacted; every phase has a deadline. ``--minutes 3`` for a shorter run.
+Then three scenarios of issue 29 (``--scenarios``, all by default):
+- ``race``: the live-update race, 50 concurrent mixed updates (goals added and removed,
+  obstacles, pause, resume) on a running mission with a cancel among them, several rounds:
+  every answer 2xx/4xx, each accepted goal at the index its answer gave, the caps held, after
+  ``cancelling`` only the terminal status;
+- ``stall``: the costly-body stall, /livez latency measured by a separate process, first idle,
+  then while 519 kB missions (50 goals, 200 polygons of 64 points, half of them invalid) are
+  posted four at a time and long /simulate rollouts run (target: max <= 50 ms);
+- ``memory``: the memory cap, a 50 m maze planned with A*/hFF on a server with
+  ``SCREWSNAKE_WORKER_MEMORY`` (``--worker-memory``, 1G): the mission ends ``failed: memory
+  limit``, the worker is replaced, its RSS sampled all along.
+
+Only 127.0.0.1 is contacted; every phase has a deadline. ``--minutes 3`` for a shorter run,
+``--minutes 0 --scenarios stall`` for one scenario alone.
 """
 
 from __future__ import annotations
@@ -11,7 +24,10 @@ from __future__ import annotations
 import argparse
 import asyncio
 import contextlib
+import http.client
 import json
+import math
+import multiprocessing
 import os
 import random
 import signal
@@ -20,6 +36,7 @@ import tempfile
 import time
 from collections import Counter
 from pathlib import Path
+from typing import Any
 
 import httpx
 import websockets
@@ -152,6 +169,8 @@ class Soak:
     async def killer(self) -> None:
         while not self.stop.is_set():
             await asyncio.sleep(self.rng.uniform(10, 25))
+            if self.stop.is_set():
+                return
             victims = mission_workers(self.pid)
             if victims:
                 with contextlib.suppress(ProcessLookupError):
@@ -243,11 +262,292 @@ def drain(base: str) -> list[dict]:
         return missions
 
 
+# -- issue 29's scenarios --------------------------------------------------------------------------
+RACE_ROUNDS = 5
+RACE_UPDATES = 50
+RACE_MISSION = {  # paced: it runs until cancelled (within the soak's 30 s wall-clock limit)
+    "name": "soak-race",
+    "goals": [{"x": -4, "y": 4}],
+    "bounds": BOUNDS,
+    "speed": 1,
+    "time_limit": 25,
+}
+STALL_ROUNDS = 3
+LIVEZ_EVERY = 0.01  # seconds between the prober's requests
+STALL_TARGET_MS = 50.0
+
+
+def costly_mission(bad: bool) -> dict[str, Any]:
+    """50 goals against 200 polygons of 64 points (~519 kB of JSON): its validation alone took
+    1.4-1.6 s; ``bad``: the last goal too close to a polygon (a 422 after all of it)."""
+    polygons = []
+    for k in range(200):
+        cx, cy = -9 + (k % 20) * 0.9, 2 + (k // 20) * 0.75
+        points = [
+            [
+                round(cx + 0.2 * math.cos(2 * math.pi * i / 64), 12),
+                round(cy + 0.2 * math.sin(2 * math.pi * i / 64), 12),
+            ]
+            for i in range(64)
+        ]
+        polygons.append({"type": "polygon", "points": points})
+    goals = [{"x": -9 + (i % 10) * 1.8, "y": -9 + (i // 10) * 1.5} for i in range(50)]
+    if bad:
+        goals[-1] = {"x": -9.0, "y": 2.22}
+    return {
+        "name": "soak-costly",
+        "goals": goals,
+        "obstacles": polygons,
+        "bounds": {"xmin": -10, "xmax": 10, "ymin": -10, "ymax": 10},
+        "time_limit": 20,
+        "planner": {"time_limit": 2},
+    }
+
+
+def race_goal(rng: random.Random) -> dict[str, float]:
+    return {"x": round(rng.uniform(-4, 4), 3), "y": round(rng.uniform(-4, 4), 3)}
+
+
+async def race_round(http: httpx.AsyncClient, rng: random.Random) -> dict[str, Any]:
+    """One mission, 50 concurrent mixed updates and a cancel among them; what held."""
+    r = await http.post("/missions", json=RACE_MISSION)
+    assert r.status_code == 201, r.text
+    mission = r.json()["id"]
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        if (await http.get(f"/missions/{mission}")).json()["status"] == "executing":
+            break
+        await asyncio.sleep(0.05)
+
+    async def update(k: int) -> tuple[str, httpx.Response, Any]:
+        kind = rng.choices(["goal", "remove", "obstacle", "pause", "resume"], [5, 2, 2, 1, 1])[0]
+        base = f"/missions/{mission}"
+        if k == RACE_UPDATES // 2:  # the cancel, once the first updates are under way
+            await asyncio.sleep(0.05)
+            return "cancel", await http.post(f"{base}/cancel"), None
+        if kind == "goal":
+            goal = race_goal(rng)
+            return kind, await http.post(f"{base}/goals", json=goal), goal
+        if kind == "remove":
+            return kind, await http.delete(f"{base}/goals/{rng.randrange(8)}"), None
+        if kind == "obstacle":
+            circle = {"type": "circle", **race_goal(rng), "radius": 0.1}
+            return kind, await http.post(f"{base}/obstacles", json={"obstacle": circle}), None
+        return kind, await http.post(f"{base}/{kind}"), None
+
+    answers = await asyncio.gather(*(update(k) for k in range(RACE_UPDATES)))
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:
+        m = (await http.get(f"/missions/{mission}")).json()
+        if m["status"] in TERMINAL:
+            break
+        await asyncio.sleep(0.1)
+    codes = Counter(f"{kind} {r.status_code}" for kind, r, _ in answers)
+    statuses = [t["status"] for t in m["transitions"]]
+    after = statuses[statuses.index("cancelling") + 1 :] if "cancelling" in statuses else []
+    wrong = sum(
+        1
+        for kind, r, goal in answers
+        if kind == "goal"
+        and r.status_code == 202
+        and (m["goals"][r.json()["goal"]]["x"], m["goals"][r.json()["goal"]]["y"])
+        != (goal["x"], goal["y"])
+    )
+    return {
+        "codes": codes,
+        "fives": sum(r.status_code >= 500 for _, r, _ in answers),
+        "end": m["status"],
+        "after_cancelling": after,
+        "wrong_index": wrong,
+        "goals": len(m["goals"]),
+    }
+
+
+def race(base: str, rounds: int, seed: int) -> None:
+    print(
+        f"\n== live-update race: {rounds} rounds of {RACE_UPDATES} concurrent updates, a cancel among them"
+    )
+
+    async def run() -> list[dict[str, Any]]:
+        rng = random.Random(seed)
+        async with httpx.AsyncClient(base_url=base, timeout=60) as http:
+            return [await race_round(http, rng) for _ in range(rounds)]
+
+    results = asyncio.run(run())
+    codes: Counter[str] = Counter()
+    for result in results:
+        codes.update(result["codes"])
+    print("answers by update and status:")
+    for key, n in sorted(codes.items()):
+        print(f"  {key:>16}  {n}")
+    print(f"ends: {Counter(r['end'] for r in results)}")
+    print(f"goals per mission at the end: {[r['goals'] for r in results]} (cap 50)")
+    print(f"statuses after cancelling: {[r['after_cancelling'] for r in results]} (only an end)")
+    print(
+        f"accepted goals not at their answered index: {sum(r['wrong_index'] for r in results)} (must be 0)"
+    )
+    print(f"5xx: {sum(r['fives'] for r in results)} (must be 0)")
+
+
+def prober(port: int, seconds: float, out: Any) -> None:
+    """A separate process: GET /livez every LIVEZ_EVERY for ``seconds``; the latencies (ms)."""
+    conn = http.client.HTTPConnection("127.0.0.1", port, timeout=60)
+    latencies, end = [], time.monotonic() + seconds
+    while time.monotonic() < end:
+        started = time.perf_counter()
+        conn.request("GET", "/livez")
+        conn.getresponse().read()
+        latencies.append((time.perf_counter() - started) * 1e3)
+        time.sleep(LIVEZ_EVERY)
+    out.put(latencies)
+
+
+def livez_while(port: int, seconds: float, work: Any) -> list[float]:
+    """/livez latencies (ms) measured by another process while ``work()`` runs."""
+    context = multiprocessing.get_context("spawn")
+    out = context.Queue()
+    probe = context.Process(target=prober, args=(port, seconds, out))
+    probe.start()
+    time.sleep(0.5)
+    work()
+    latencies: list[float] = out.get(timeout=seconds + 120)
+    probe.join()
+    return latencies
+
+
+def summary(latencies: list[float]) -> str:
+    ms = sorted(latencies)
+    p = lambda q: ms[min(len(ms) - 1, int(q * len(ms)))]  # noqa: E731
+    return f"n={len(ms)} p50 {p(0.5):.1f} p99 {p(0.99):.1f} max {ms[-1]:.1f} ms"
+
+
+def stall(base: str, rounds: int) -> None:
+    port = int(base.rsplit(":", 1)[1])
+    bodies = [json.dumps(costly_mission(bad=i % 2 == 0)).encode() for i in range(4)]
+    print(
+        f"\n== costly-body stall: {rounds} rounds of 4 posts of {len(bodies[0]) // 1000} kB at once (2 invalid), then 3 long /simulate"
+    )
+    idle = livez_while(port, 5, lambda: None)
+    print(f"/livez idle:                {summary(idle)}")
+    posts: list[tuple[int, float]] = []
+
+    def post_costly() -> None:
+        async def go() -> None:
+            async with httpx.AsyncClient(base_url=base, timeout=120) as http:
+                for _ in range(rounds):
+
+                    async def one(body: bytes) -> None:
+                        started = time.perf_counter()
+                        r = await http.post(
+                            "/missions", content=body, headers={"Content-Type": "application/json"}
+                        )
+                        posts.append((r.status_code, time.perf_counter() - started))
+                        if r.status_code == 201:
+                            await http.post(f"/missions/{r.json()['id']}/cancel")
+
+                    await asyncio.gather(*(one(b) for b in bodies))
+
+        asyncio.run(go())
+
+    busy = livez_while(port, 25, post_costly)
+    took = sorted(s for _, s in posts)
+    print(f"/livez while posting:       {summary(busy)}")
+    print(
+        f"  posts: {dict(Counter(c for c, _ in posts))}, each {took[0]:.1f}-{took[-1]:.1f} s (validation in the pool)"
+    )
+    sim = {
+        "theta": [-0.1, 0.53, -0.12, 0.5],
+        "phases": [0.6, -0.5, -0.3],
+        "duration": 3600,
+        "dt": 0.04,
+        "max_points": 100_000,
+    }
+    sims: list[int] = []
+
+    def simulate() -> None:
+        async def go() -> None:
+            async with httpx.AsyncClient(base_url=base, timeout=120) as http:
+                rs = await asyncio.gather(*(http.post("/simulate", json=sim) for _ in range(3)))
+                sims.extend(r.status_code for r in rs)
+
+        asyncio.run(go())
+
+    simulating = livez_while(port, 10, simulate)
+    print(
+        f"/livez while simulating:    {summary(simulating)}  ({dict(Counter(sims))}, 90,000 rows each)"
+    )
+    worst = max(max(busy), max(simulating))
+    print(
+        f"worst /livez under the costly requests: {worst:.1f} ms (target <= {STALL_TARGET_MS:g}; idle max {max(idle):.1f})"
+    )
+
+
+def maze() -> dict[str, Any]:
+    """A 50 m x 50 m serpentine maze (six walls, 5 m gaps at alternate ends), goal at the far
+    corner, planned with pyperplan's A* and hFF: its search grew a worker to 3 GB in 60 s."""
+    walls = [
+        {"type": "rectangle", "x": -2.5 if k % 2 == 0 else 2.5, "y": y, "width": 45, "height": 0.3}
+        for k, y in enumerate((-17.5, -10, -2.5, 5, 12.5, 20))
+    ]
+    return {
+        "name": "soak-maze-50m",
+        "start": {"x": -22, "y": -22, "psi": 0},
+        "goals": [{"x": 22, "y": 23}],
+        "obstacles": walls,
+        "bounds": {"xmin": -25, "xmax": 25, "ymin": -25, "ymax": 25},
+        "planner": {"search": "astar", "heuristic": "hff", "time_limit": 120},
+        "time_limit": 36000,
+    }
+
+
+def memory(worker_memory: str) -> None:
+    print(f"\n== memory cap: the 50 m maze with A*/hFF, SCREWSNAKE_WORKER_MEMORY={worker_memory}")
+    with tempfile.TemporaryDirectory() as tmp:
+        proc, base = start_server(
+            Path(tmp) / "memory.db",
+            SCREWSNAKE_MAX_RUNNING="1",
+            SCREWSNAKE_WORKER_MEMORY=worker_memory,
+            SCREWSNAKE_WALL_LIMIT="300",
+        )
+        try:
+            with httpx.Client(base_url=base, timeout=30) as http:
+                deadline = time.monotonic() + 300
+                while http.get("/readyz").status_code != 200 and time.monotonic() < deadline:
+                    time.sleep(0.2)
+                before = set(mission_workers(proc.pid))
+                mission = http.post("/missions", json=maze()).json()["id"]
+                started, peak = time.monotonic(), 0.0
+                while time.monotonic() - started < 300:
+                    for pid in mission_workers(proc.pid):
+                        with contextlib.suppress(OSError, ValueError):
+                            peak = max(peak, rss_mb(pid))
+                    m = http.get(f"/missions/{mission}").json()
+                    if m["status"] in TERMINAL:
+                        break
+                    time.sleep(0.05)
+                took = time.monotonic() - started
+                time.sleep(2)  # the replacement starts
+                after = set(mission_workers(proc.pid))
+                ready = http.get("/readyz").status_code
+        finally:
+            proc.terminate()
+            proc.wait(timeout=60)
+    print(f"ended after {took:.1f} s: {m['status']}: {m['reason']}")
+    print(
+        f"worker RSS sampled every 50 ms: peak {peak:.0f} MB; worker replaced: {before != after and bool(after)}; /readyz after: {ready}"
+    )
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--minutes", type=float, default=10.0)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument(
+        "--scenarios", default="race,stall,memory", help="issue 29's scenarios to run after it"
+    )
+    parser.add_argument("--worker-memory", default="1G", help="the memory scenario's cap")
     args = parser.parse_args()
+    scenarios = {name for name in args.scenarios.split(",") if name}
     print(
         f"soak: {args.minutes:g} min, seed {args.seed}, server {' '.join(f'{k}={v}' for k, v in SERVER.items())}"
     )
@@ -262,9 +562,21 @@ def main() -> None:
             wall = time.perf_counter() - t0
             rss_end = rss_mb(proc.pid)
             health = httpx.get(f"{base}/readyz", timeout=10).status_code
+            report(soak, missions, wall, health, rss_start, rss_end)
+            if "race" in scenarios:
+                race(base, RACE_ROUNDS, args.seed)
+            if "stall" in scenarios:
+                stall(base, STALL_ROUNDS)
         finally:
             proc.terminate()
             proc.wait(timeout=30)
+    if "memory" in scenarios:
+        memory(args.worker_memory)
+
+
+def report(
+    soak: Soak, missions: list[dict], wall: float, health: int, rss_start: float, rss_end: float
+) -> None:
     fives = sum(n for s, n in soak.statuses.items() if s.startswith("5") and "busy" not in s)
     print(
         f"\nwall {wall:.0f} s (run + drain); workers SIGKILLed: {soak.kills}; websocket sessions: "

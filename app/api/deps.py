@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import secrets
 from dataclasses import dataclass
 from typing import Annotated
 
@@ -11,11 +10,14 @@ from fastapi import Depends, Path, Request
 from fastapi.security import HTTPAuthorizationCredentials, HTTPBearer
 
 from app.api.errors import ApiError
+from app.api.limits import key_ok
 from app.service.hub import Hub
 from app.service.intake import Intake
 from app.service.jobs import Jobs
+from app.service.live import LiveUpdates
 from app.service.metrics import Metrics
 from app.service.supervisor import Supervisor
+from app.service.validation import Validation
 from app.settings import Settings
 from app.store.repo import Store
 from primitives.library import Library
@@ -33,6 +35,8 @@ class Services:
     library_version: str
     snapshots: CapacityLimiter  # bounds the websocket snapshots built at once
     intake: Intake  # stores and queues posted missions, in batches
+    validation: Validation  # request bodies (and live updates) validated off the event loop
+    live: LiveUpdates  # the rules of live updates of running missions
 
 
 # The dependencies are ``async``: FastAPI runs a plain ``def`` dependency in its thread pool,
@@ -49,15 +53,16 @@ bearer = HTTPBearer(auto_error=False)
 
 
 async def writer(
-    svc: Svc, credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(bearer)]
+    svc: Svc,
+    request: Request,
+    credentials: Annotated[HTTPAuthorizationCredentials | None, Depends(bearer)],
 ) -> None:
-    """Writes need ``Authorization: Bearer <key>`` when an API key is set."""
-    key = svc.settings.api_key
-    if key is None:
+    """Writes need ``Authorization: Bearer <key>`` when an API key is set (``credentials``
+    documents the scheme; the key is compared by ``key_ok``, the middleware's own function, on
+    the header's raw bytes)."""
+    if svc.settings.api_key is None:
         return
-    # Bytes, not str: compare_digest refuses non-ASCII strings (a 500 on a stray header byte).
-    given = credentials.credentials.encode("utf-8", "surrogateescape") if credentials else None
-    if given is None or not secrets.compare_digest(given, key.encode("utf-8")):
+    if not key_ok(svc.settings, request.scope):
         raise ApiError(
             401, "a valid API key is required for writes", headers={"WWW-Authenticate": "Bearer"}
         )

@@ -13,11 +13,11 @@ from fastapi import APIRouter, Request
 from fastapi.responses import Response
 from prometheus_client import CONTENT_TYPE_LATEST, generate_latest
 from pydantic import BaseModel, Field
-from sqlalchemy import text
 
 from app.api.deps import Services, Svc
 from app.api.errors import PROBLEM, problem
 from app.api.faults import DbHealth
+from app.store.db import DatabaseLost
 
 router = APIRouter(tags=["health"])
 NOT_READY_RETRY_AFTER = 1  # seconds: a warm-up takes a few
@@ -80,20 +80,24 @@ def livez() -> dict[str, str]:
     response_model=Readiness,
     responses={
         503: {
-            "description": "Not ready: the database failed recently, or too few mission "
-            "workers have warmed up yet (the detail says which; `workers` counts them)",
+            "description": "Not ready: the database failed recently, takes no write, or its "
+            "file was deleted or replaced under the server; or too few mission workers have "
+            "warmed up yet (the detail says which; `workers` counts them)",
             "content": {PROBLEM: {"schema": NOT_READY}},
         }
     },
 )
 def readyz(svc: Svc, request: Request) -> Any:
-    """Ready when the database answers and has not failed recently (see app.api.faults) and at
+    """Ready when the database takes a write, is the file the server opened (not deleted or
+    replaced under it), and has not failed recently (see app.api.faults), and at
     least ``SCREWSNAKE_READY_WORKERS`` mission workers are warm; says which library is loaded
     and how warm the pool is."""
     health: DbHealth = request.app.state.db_health
     try:
-        with svc.store.engine.connect() as conn:
-            conn.execute(text("SELECT 1"))
+        svc.store.probe()  # the file as opened, and a write that commits
+    except DatabaseLost as exc:  # for as long as it lasts: a restart opens the file anew
+        health.failed(exc)
+        return problem(503, f"database unavailable: {exc.reason}; restart the server")
     except Exception as exc:  # not ready: say why (the kind only: no URL, no path)
         health.failed(exc)
     if not health.healthy:

@@ -7,9 +7,10 @@ from fastapi import APIRouter, Depends, Response
 from app.api.deps import JobId, Svc, writer
 from app.api.errors import ApiError, responses
 from app.api.schemas import JobOut, LearnIn
+from app.api.validated import ValidatedRoute
 from app.store.models import JobRow
 
-router = APIRouter(tags=["jobs"])
+router = APIRouter(tags=["jobs"], route_class=ValidatedRoute)  # bodies off the loop
 
 
 def job_out(row: JobRow) -> JobOut:
@@ -30,7 +31,7 @@ def job_out(row: JobRow) -> JobOut:
     status_code=202,
     response_model=JobOut,
     dependencies=[Depends(writer)],
-    responses=responses(401, 422),
+    responses=responses(401, 422, 503),
 )
 def start_learning(body: LearnIn, response: Response, svc: Svc) -> JobOut:
     job_id = svc.jobs.start(body.model_dump(mode="json"))

@@ -18,11 +18,12 @@ def updates(row: MissionRow, kind: str) -> list[dict[str, Any]]:
     return [e for e in events if e.get("kind") == "update" and e.get("update") == kind]
 
 
-def current_goals(row: MissionRow) -> list[GoalOut]:
-    """The goals by index: those posted, then those added live, with progress as last saved."""
+def current_goals(row: MissionRow, live: list[dict[str, Any]] | None = None) -> list[GoalOut]:
+    """The goals by index: those posted, then those added live, with progress as the running
+    mission's live account has it (``live``), else as last saved."""
     posted: list[dict[str, Any]] = row.request.get("goals", [])
     saved: list[dict[str, Any]] = (row.state or {}).get("goals") or []
-    goals = saved or [
+    goals = live or saved or [
         {"x": g["x"], "y": g["y"], "tolerance": g.get("tolerance", 0.1)} for g in posted
     ]
     added = {int(e["detail"]["goal"]): float(e["t"]) for e in updates(row, "add_goal")}

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import secrets
 from typing import Any, NoReturn
-from urllib.parse import parse_qs, unquote, urlsplit
+from urllib.parse import unquote, unquote_to_bytes, urlsplit
 
 from fastapi import FastAPI, HTTPException, Request
 from fastapi.exceptions import RequestValidationError
@@ -19,7 +19,10 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from app.api.errors import problem
 from app.missions.spec import MissionSpec
+from app.service.jobs import JobsFull
+from app.service.live import Refused
 from app.service.supervisor import QueueFull
+from app.service.validation import ValidationUnavailable
 from app.settings import Settings
 from primitives.library import Library
 from primitives.shapes import classify_shape
@@ -53,24 +56,34 @@ def needs_key(settings: Settings, scope: Scope) -> bool:
 
 
 def given_key(scope: Scope) -> bytes | None:
-    """The bearer token of ``Authorization``; for websockets also ``?token=`` (browsers
-    cannot set headers on a websocket)."""
+    """The bearer token of ``Authorization`` as its raw bytes; for websockets also ``?token=``
+    (browsers cannot set headers on a websocket), percent-decoded to bytes (a UTF-8 key is
+    sent as its UTF-8 bytes, escaped). Never raises, whatever the client sent."""
     header = _header(scope, b"authorization")
     if header is not None:
         scheme, _, token = header.partition(b" ")
         return token.strip() if scheme.lower() == b"bearer" else None
     if scope["type"] == "websocket":
-        query = parse_qs(scope.get("query_string", b"").decode("latin-1"))
-        if "token" in query:
-            return str(query["token"][0]).encode("latin-1")
+        for pair in bytes(scope.get("query_string", b"")).split(b"&"):
+            name, _, value = pair.partition(b"=")
+            if unquote_to_bytes(name.replace(b"+", b" ")) == b"token":
+                return unquote_to_bytes(value.replace(b"+", b" "))
     return None
 
 
+def key_bytes(key: str) -> bytes:
+    """The configured key as bytes: UTF-8, and an environment value that was not UTF-8 as the
+    bytes it was (Python decodes the environment with ``surrogateescape``)."""
+    return key.encode("utf-8", "surrogateescape")
+
+
 def key_ok(settings: Settings, scope: Scope) -> bool:
+    """Whether the request carries the API key: the one comparison for HTTP (the middleware and
+    the ``writer`` dependency) and websockets, of bytes with bytes (``compare_digest`` refuses
+    non-ASCII strings, and a header decoded one way and encoded another never matches)."""
     key = settings.api_key
     given = given_key(scope)
-    # Bytes, not str: compare_digest refuses non-ASCII strings.
-    return key is not None and given is not None and secrets.compare_digest(given, key.encode())
+    return key is not None and given is not None and secrets.compare_digest(given, key_bytes(key))
 
 
 def origin_ok(settings: Settings, scope: Scope) -> bool:
@@ -82,7 +95,11 @@ def origin_ok(settings: Settings, scope: Scope) -> bool:
     if origin in settings.allowed_origins or "*" in settings.allowed_origins:
         return True
     host = (_header(scope, b"host") or b"").decode("latin-1")
-    return bool(host) and urlsplit(origin).netloc == host
+    try:
+        netloc = urlsplit(origin).netloc
+    except ValueError:  # e.g. "http://[": not an origin anybody serves, never a 500
+        return False
+    return bool(host) and netloc == host
 
 
 def has_nul(scope: Scope) -> bool:
@@ -150,8 +167,14 @@ class RequestGuard:
 
 
 def check_mission(spec: MissionSpec, settings: Settings, library: Library) -> None:
-    """What depends on the server: its library covers the body shape (422 naming ``shape``),
-    and the speed fits its wall-clock limit (422 naming ``speed``)."""
+    """What depends on the server: at most ``max_goals`` goals (422 naming ``goals``), its
+    library covers the body shape (422 naming ``shape``), and the speed fits its wall-clock
+    limit (422 naming ``speed``)."""
+    if len(spec.goals) > settings.max_goals:
+        invalid(
+            "goals",
+            f"{len(spec.goals)} goals, at most {settings.max_goals} (SCREWSNAKE_MAX_GOALS)",
+        )
     if spec.goals and spec.planner.domain == "navigation":
         shape = spec.shape_name()
         if shape == "custom":  # the spec made sure it classifies
@@ -183,12 +206,28 @@ def invalid(field: str, message: str) -> NoReturn:
 
 
 def install(app: FastAPI) -> None:
-    """A full queue is a 503 with Retry-After, never a 500."""
+    """A full queue (missions or learning jobs) and unavailable validation processes are a 503
+    with Retry-After, never a 500; a refused live update is its own problem (404, 409, 422)."""
 
-    async def _busy(_: Request, exc: Exception) -> JSONResponse:
-        detail = "too many missions are waiting; retry later"
+    def busy(detail: str) -> JSONResponse:
         response = problem(503, detail)
         response.headers["Retry-After"] = str(BUSY_RETRY_AFTER)
         return response
 
+    async def _busy(_: Request, exc: Exception) -> JSONResponse:
+        return busy("too many missions are waiting; retry later")
+
+    async def _jobs_busy(_: Request, exc: Exception) -> JSONResponse:
+        return busy("too many learning jobs are waiting; retry later")
+
+    async def _no_validation(_: Request, exc: Exception) -> JSONResponse:
+        return busy("requests cannot be validated now (the validation processes failed)")
+
+    async def _refused(_: Request, exc: Exception) -> JSONResponse:
+        assert isinstance(exc, Refused)
+        return problem(exc.status, exc.detail, exc.field)
+
     app.add_exception_handler(QueueFull, _busy)
+    app.add_exception_handler(JobsFull, _jobs_busy)
+    app.add_exception_handler(ValidationUnavailable, _no_validation)
+    app.add_exception_handler(Refused, _refused)

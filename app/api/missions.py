@@ -23,19 +23,23 @@ from app.api.schemas import (
     TrajectoryOut,
     TransitionOut,
 )
+from app.api.validated import ValidatedRoute
 from app.missions.spec import MissionSpec
 from app.missions.status import TERMINAL, MissionStatus
 from app.service.supervisor import QueueFull
 from app.store.models import MissionRow
 
-router = APIRouter(tags=["missions"])
+router = APIRouter(tags=["missions"], route_class=ValidatedRoute)  # bodies off the loop
 
 
 def resource(
     svc: Services, row: MissionRow, transitions: list[TransitionOut] | None = None
 ) -> MissionOut:
-    """The mission as the API shows it; ``transitions`` when known (else read)."""
+    """The mission as the API shows it; ``transitions`` when known (else read). A running
+    mission's goals are its live account's (``app.service.live``: added and removed ones
+    included at once), not the state its worker last saved."""
     state = row.state or {}
+    live = svc.supervisor.live_goals(row.id) if row.status not in TERMINAL else None
     start = row.request.get("start", {})
     pose = state.get("pose") or {
         "x": start.get("x", 0.0),
@@ -55,7 +59,7 @@ def resource(
             TransitionOut(status=MissionStatus(t.status), at=t.at, reason=t.reason)
             for t in svc.store.transitions(row.id)
         ],
-        goals=current_goals(row),
+        goals=current_goals(row, live),
         obstacles=known_obstacles(row),
         pose=PoseOut.model_validate(pose),
         model_time=state.get("model_time", 0.0),
@@ -117,7 +121,9 @@ async def create_mission(
     timing.lap("accept")  # the body read and validated, the dependencies solved
     check_library(svc, spec)
     check_mission(spec, svc.settings, svc.library)
-    if svc.supervisor.full():  # before the row: never a stored mission that cannot run
+    # A full queue refuses a new mission before any work on it (the intake refuses it too,
+    # and stores nothing); a retried Idempotency-Key is answered by the intake first, full or not.
+    if idempotency_key is None and svc.supervisor.full():
         raise QueueFull()
     request = spec.model_dump(mode="json", by_alias=True)
     timing.lap("validate")

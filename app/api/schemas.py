@@ -372,7 +372,15 @@ class UpdateOut(BaseModel):
 
     mission: str = Field(description="the mission's id")
     update: str = Field(description="add_goal, remove_goal, add_obstacle, pause or resume")
-    goal: int | None = Field(default=None, description="the goal's index, as posted")
+    goal: int | None = Field(
+        default=None,
+        description="the goal's index: as posted, then in the order added (add and remove)",
+    )
+    obstacle: int | None = Field(
+        default=None,
+        description="the obstacle's index among the mission's obstacles: as posted, then in "
+        "the order added (add_obstacle)",
+    )
     status: MissionStatus = Field(description="the mission's status when accepted")
 
 

@@ -4,15 +4,16 @@ from __future__ import annotations
 
 import math
 
-from fastapi import APIRouter
-from starlette.concurrency import run_in_threadpool
+from fastapi import APIRouter, Response
 
+from app.api.deps import Svc
 from app.api.errors import responses
 from app.api.schemas import SimulateIn, SimulateOut
+from app.api.validated import ValidatedRoute
 from sim.controls import Control, FixedShape, PeriodicGait
 from sim.rollout import RolloutConfig, rollout
 
-router = APIRouter(tags=["simulate"])
+router = APIRouter(tags=["simulate"], route_class=ValidatedRoute)  # bodies off the loop
 
 
 def simulate_now(body: SimulateIn) -> SimulateOut:
@@ -41,8 +42,16 @@ def simulate_now(body: SimulateIn) -> SimulateOut:
     )
 
 
-@router.post("/simulate", response_model=SimulateOut, responses=responses(422))
-async def simulate(body: SimulateIn) -> SimulateOut:
+def simulate_json(body: SimulateIn) -> bytes:
+    """In a validation process: the rollout and its answer as JSON bytes (100,000 rows are
+    6 MB of JSON: built there, the server's event loop only sends them)."""
+    return simulate_now(body).model_dump_json().encode()
+
+
+@router.post("/simulate", response_model=SimulateOut, responses=responses(422, 503))
+async def simulate(body: SimulateIn, svc: Svc) -> Response:
     """Parameters -> trajectory rows ``[t, x, y, psi, p1, p2, p3]``, thinned to at most
-    ``max_points`` rows (every ``stride``-th step, the last always included)."""
-    return await run_in_threadpool(simulate_now, body)
+    ``max_points`` rows (every ``stride``-th step, the last always included). The rollout runs
+    in a validation process, off the event loop (a long one took the server's GIL for 300 ms)."""
+    answer = await svc.validation.run(simulate_json, body)
+    return Response(answer, media_type="application/json")

@@ -2,7 +2,9 @@
 
 Each update reaches the mission's worker as a typed message, becomes a typed trigger there
 (GoalsChanged, ObstacleAdded, Resumed) that replans, and shows in the transitions, on the
-websocket (an ``update`` event, then the replan) and in the event log.
+websocket (an ``update`` event, then the replan) and in the event log. The rules (the running
+mission's one account of its goals and obstacles, the caps, the checks) are in
+``app.service.live``; a refusal there is answered as a problem (``app.api.limits``).
 """
 
 from __future__ import annotations
@@ -13,18 +15,14 @@ from typing import Annotated, Any
 
 from fastapi import APIRouter, Body, Depends, Path
 from fastapi.responses import StreamingResponse
-from pydantic import ValidationError
 
-from app.api.deps import MissionId, Services, Svc, writer
-from app.api.errors import ApiError, responses
+from app.api.deps import MissionId, Svc, writer
+from app.api.errors import responses
 from app.api.missions import found
 from app.api.schemas import OBSTACLE_EXAMPLES, GoalAdd, ObstacleBody, UpdateOut
-from app.missions.spec import MissionSpec
-from app.missions.status import TERMINAL, MissionStatus
-from app.service.messages import AddGoal, AddObstacle, Pause, RemoveGoal, Resume, Update
-from app.store.models import MissionRow
+from app.api.validated import ValidatedRoute
 
-router = APIRouter(tags=["missions"])
+router = APIRouter(tags=["missions"], route_class=ValidatedRoute)
 WRITE: dict[str, Any] = {
     "status_code": 202,
     "response_model": UpdateOut,
@@ -33,96 +31,62 @@ WRITE: dict[str, Any] = {
 JSONL = "application/jsonl"
 
 
-def running(svc: Services, mission_id: str) -> MissionRow:
-    """The mission, if it can take an update now: 404 unknown, 409 ended or not started."""
-    row = found(svc, mission_id)
-    if row.status in TERMINAL:
-        raise ApiError(409, f"mission {mission_id} already ended ({row.status})")
-    if row.status in (MissionStatus.QUEUED, MissionStatus.CANCELLING):
-        raise ApiError(409, f"mission {mission_id} is {row.status}: only running missions update")
-    return row
-
-
-def send(svc: Services, row: MissionRow, update: Update, goal: int | None = None) -> UpdateOut:
-    if not svc.supervisor.update(row.id, update):
-        raise ApiError(409, f"mission {row.id} is not running")
-    return UpdateOut(
-        mission=row.id, update=update.kind, goal=goal, status=MissionStatus(row.status)
-    )
-
-
-def goals_now(row: MissionRow) -> list[dict[str, Any]]:
-    """The goals as the mission last reported them (as posted, with live additions)."""
-    stored: list[dict[str, Any]] = (row.state or {}).get("goals") or []
-    return stored or list(row.request.get("goals", []))
-
-
-@router.post("/missions/{mission_id}/goals", **WRITE, responses=responses(401, 404, 409, 422))
-def add_goal(mission_id: MissionId, goal: GoalAdd, svc: Svc) -> UpdateOut:
-    """Append a goal to a running mission; it replans (trigger `goals_changed`). The new
-    goal's index follows the goals as posted."""
-    row = running(svc, mission_id)
-    if row.request.get("chain"):
-        raise ApiError(409, f"mission {mission_id} runs a chain of primitives: it has no goals")
-    goals = goals_now(row)
-    posted = [{"x": g["x"], "y": g["y"], "tolerance": g["tolerance"]} for g in goals]
-    try:  # the mission's own checks: inside the bounds, outside known obstacles, reachable
-        MissionSpec.model_validate({**row.request, "goals": [*posted, goal.model_dump()]})
-    except ValidationError as exc:
-        message = str(exc.errors()[0]["msg"]).removeprefix("Value error, ")
-        raise ApiError(422, message.replace(f"goals.{len(posted)}", "goal"), "body") from exc
-    return send(svc, row, AddGoal(goal.x, goal.y, goal.tolerance), goal=len(posted))
+@router.post("/missions/{mission_id}/goals", **WRITE, responses=responses(401, 404, 409, 422, 503))
+async def add_goal(mission_id: MissionId, goal: GoalAdd, svc: Svc) -> UpdateOut:
+    """Append a goal to a running mission; it replans (trigger `goals_changed`). The answer's
+    `goal` is its index: the next after the goals posted and added before (the same the
+    mission's `goals` and `DELETE .../goals/{index}` use). Checked like a posted goal against
+    the mission's current world (its obstacles, those added live too): 422 naming the field;
+    at most `SCREWSNAKE_MAX_GOALS` goals (422)."""
+    index, status = await svc.live.add_goal(mission_id, goal.model_dump())
+    return UpdateOut(mission=mission_id, update="add_goal", goal=index, status=status)
 
 
 @router.delete(
     "/missions/{mission_id}/goals/{index}", **WRITE, responses=responses(401, 404, 409, 422)
 )
-def remove_goal(
+async def remove_goal(
     mission_id: MissionId,
     index: Annotated[int, Path(ge=0, le=10_000, description="the goal's index, as posted")],
     svc: Svc,
 ) -> UpdateOut:
-    """Stop pursuing a goal; it replans. A reached goal cannot be removed (409)."""
-    row = running(svc, mission_id)
-    goals = goals_now(row)
-    if index >= len(goals):
-        raise ApiError(404, f"mission {mission_id} has no goal {index} (0..{len(goals) - 1})")
-    if goals[index].get("reached"):
-        raise ApiError(409, f"goal {index} was already reached")
-    if goals[index].get("removed"):
-        raise ApiError(409, f"goal {index} was already removed")
-    return send(svc, row, RemoveGoal(index), goal=index)
+    """Stop pursuing a goal; it replans. A reached goal cannot be removed (409), nor the last
+    goal not reached (409: cancel the mission instead)."""
+    status = await svc.live.remove_goal(mission_id, index)
+    return UpdateOut(mission=mission_id, update="remove_goal", goal=index, status=status)
 
 
-@router.post("/missions/{mission_id}/obstacles", **WRITE, responses=responses(401, 404, 409, 422))
-def add_obstacle(
+@router.post(
+    "/missions/{mission_id}/obstacles", **WRITE, responses=responses(401, 404, 409, 422, 503)
+)
+async def add_obstacle(
     mission_id: MissionId,
     body: Annotated[ObstacleBody, Body(openapi_examples=OBSTACLE_EXAMPLES)],
     svc: Svc,
 ) -> UpdateOut:
-    """Add a known obstacle to the mission's world model; it replans (`obstacle_added`). The
-    body is the obstacle as in a mission's `obstacles` (`{"obstacle": {...}}` is taken too)."""
-    row = running(svc, mission_id)
+    """Add a known obstacle to the mission's world model; it replans (`obstacle_added`). Not on
+    the robot's body as it last reported, nor over a goal still to reach (422 naming
+    `obstacle`); at most `SCREWSNAKE_MAX_LIVE_OBSTACLES` per mission (422). The answer's
+    `obstacle` is its index among the mission's obstacles (posted, then added)."""
     obstacle = body.root.model_dump() | {"known": True}
-    return send(svc, row, AddObstacle(obstacle))
+    index, status = await svc.live.add_obstacle(mission_id, obstacle)
+    return UpdateOut(mission=mission_id, update="add_obstacle", obstacle=index, status=status)
 
 
 @router.post("/missions/{mission_id}/pause", **WRITE, responses=responses(401, 404, 409))
-def pause(mission_id: MissionId, svc: Svc) -> UpdateOut:
-    """Hold the robot still: model time stops until `resume` (or `cancel`)."""
-    row = running(svc, mission_id)
-    if row.status == MissionStatus.PAUSED:
-        raise ApiError(409, f"mission {mission_id} is already paused")
-    return send(svc, row, Pause())
+async def pause(mission_id: MissionId, svc: Svc) -> UpdateOut:
+    """Hold the robot still: model time stops until `resume` (or `cancel`). Pausing a paused
+    mission is a 409."""
+    status = await svc.live.pause(mission_id)
+    return UpdateOut(mission=mission_id, update="pause", status=status)
 
 
 @router.post("/missions/{mission_id}/resume", **WRITE, responses=responses(401, 404, 409))
-def resume(mission_id: MissionId, svc: Svc) -> UpdateOut:
-    """Go on from where it paused; it replans (`resumed`)."""
-    row = running(svc, mission_id)
-    if row.status != MissionStatus.PAUSED:
-        raise ApiError(409, f"mission {mission_id} is not paused ({row.status})")
-    return send(svc, row, Resume())
+async def resume(mission_id: MissionId, svc: Svc) -> UpdateOut:
+    """Go on from where it paused; it replans (`resumed`). Resuming a mission that is not
+    paused is a 409."""
+    status = await svc.live.resume(mission_id)
+    return UpdateOut(mission=mission_id, update="resume", status=status)
 
 
 @router.get(

@@ -1,11 +1,17 @@
-"""WS /missions/{id}/ws: a snapshot, then state frames and events, always ending with `end`."""
+"""WS /missions/{id}/ws: a snapshot, then state frames and events, always ending with `end`.
+
+The client's messages are read from the moment the socket is accepted, so a client that leaves
+while its snapshot waits for the store (a few are read at once) stops waiting: a crowd of clients
+opening and closing leaves no backlog in front of the next one.
+"""
 
 from __future__ import annotations
 
 import asyncio
 import contextlib
 import json
-from typing import Any
+from collections.abc import Awaitable
+from typing import Any, TypeVar
 
 from anyio import to_thread
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
@@ -18,6 +24,7 @@ from app.service.frames import EndFrame
 from app.store.models import MissionRow
 
 router = APIRouter(tags=["websocket"])
+T = TypeVar("T")
 MAX_CLIENT_MESSAGE = 4096  # bytes: clients only ever send small control messages
 
 
@@ -34,7 +41,7 @@ async def _receive(ws: WebSocket, closed: asyncio.Event) -> None:
                 break
             try:
                 parsed = json.loads(data)
-            except json.JSONDecodeError:
+            except (ValueError, RecursionError):  # not JSON, or nested past the parser's depth
                 await ws.send_json({"type": "error", "detail": "messages must be JSON objects"})
                 continue
             if isinstance(parsed, dict) and parsed.get("type") == "ping":
@@ -58,38 +65,65 @@ def snapshot(svc: Services, row: MissionRow) -> dict[str, Any]:
     }
 
 
+def _retrieve(task: asyncio.Task[Any]) -> None:
+    """A done callback: an abandoned task's outcome is read (never logged as lost)."""
+    if not task.cancelled():
+        task.exception()
+
+
+async def _unless_closed(closed: asyncio.Event, work: Awaitable[T]) -> tuple[bool, T | None]:
+    """``(True, result)`` of ``work``, or ``(False, None)`` as soon as the client has gone; the
+    work is then cancelled (a store read still waiting for its thread never starts), also when
+    this handler itself is cancelled."""
+    task = asyncio.ensure_future(work)
+    waiter = asyncio.ensure_future(closed.wait())
+    try:
+        await asyncio.wait({task, waiter}, return_when=asyncio.FIRST_COMPLETED)
+    finally:
+        waiter.cancel()
+        finished = task.done()
+        if not finished:
+            task.cancel()
+            task.add_done_callback(_retrieve)
+    if not finished or task.cancelled():
+        return False, None
+    return True, task.result()
+
+
 @router.websocket("/missions/{mission_id}/ws")
 async def mission_socket(ws: WebSocket, mission_id: str) -> None:
     svc: Services = ws.app.state.services
     await ws.accept()
-    # The store is read in a thread (a few at once: ``ws_snapshot_threads``): a burst of
-    # clients connecting must neither stall the event loop for their database reads nor take
-    # every thread from the API's requests.
-    row = await to_thread.run_sync(svc.store.get_mission, mission_id, limiter=svc.snapshots)
-    if row is None:
-        await ws.send_json(
-            {"type": "error", "status": 404, "detail": f"mission {mission_id} not found"}
-        )
-        await ws.close(code=4404)
-        return
-    channel = svc.hub.subscribe(mission_id)  # before the snapshot: no frame falls in between
     closed = asyncio.Event()
     reader = asyncio.create_task(_receive(ws, closed))
+    channel = None
     try:
-        await ws.send_json(await to_thread.run_sync(snapshot, svc, row, limiter=svc.snapshots))
+        # The store is read in a thread (a few at once: ``ws_snapshot_threads``): a burst of
+        # clients connecting must neither stall the event loop for their database reads nor
+        # take every thread from the API's requests.
+        read = to_thread.run_sync(svc.store.get_mission, mission_id, limiter=svc.snapshots)
+        here, row = await _unless_closed(closed, read)
+        if not here:
+            return
+        if row is None:
+            await ws.send_json(
+                {"type": "error", "status": 404, "detail": f"mission {mission_id} not found"}
+            )
+            await ws.close(code=4404)
+            return
+        channel = svc.hub.subscribe(mission_id)  # before the snapshot: no frame falls between
+        made = to_thread.run_sync(snapshot, svc, row, limiter=svc.snapshots)
+        here, first = await _unless_closed(closed, made)
+        if not here:
+            return
+        await ws.send_json(first)
         if row.status in TERMINAL:
             await ws.send_json({"type": "end", "status": row.status, "reason": row.reason})
             return
         while not closed.is_set():
-            getter = asyncio.create_task(channel.next())
-            waiter = asyncio.create_task(closed.wait())
-            done, _ = await asyncio.wait({getter, waiter}, return_when=asyncio.FIRST_COMPLETED)
-            if getter not in done:
-                getter.cancel()
-                waiter.cancel()
+            here, frame = await _unless_closed(closed, channel.next())
+            if not here:
                 break
-            waiter.cancel()
-            frame = getter.result()
             if frame is None:  # fell too far behind: dropped, others unaffected
                 svc.metrics.clients_dropped.inc()
                 await ws.close(code=1013, reason="client too slow")
@@ -101,8 +135,9 @@ async def mission_socket(ws: WebSocket, mission_id: str) -> None:
     except (WebSocketDisconnect, RuntimeError):
         pass
     finally:
-        svc.metrics.frames_dropped.inc(channel.dropped)
-        svc.hub.unsubscribe(mission_id, channel)
+        if channel is not None:
+            svc.metrics.frames_dropped.inc(channel.dropped)
+            svc.hub.unsubscribe(mission_id, channel)
         reader.cancel()
         if (
             ws.application_state == WebSocketState.CONNECTED

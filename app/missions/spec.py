@@ -8,13 +8,14 @@ start outside obstacles, unknown fields rejected. The same model backs mission f
 from __future__ import annotations
 
 import json
-from collections.abc import Container
+from collections.abc import Container, Sequence
 from pathlib import Path
 from typing import Annotated, Literal
 
 from pydantic import (
     BaseModel,
     Field,
+    PrivateAttr,
     ValidationError,
     field_validator,
     model_validator,
@@ -61,9 +62,64 @@ __all__ = [  # the pieces a caller may take from here as well
     "MissionSpec",
     "ObstacleSpec",
     "Pose",
+    "body_overlap",
+    "goal_misplaced",
+    "goal_out_of_reach",
     "load_mission",
     "parse_mission",
 ]
+
+
+def goal_misplaced(bounds: Bounds, obstacles: Sequence[Obstacle], x: float, y: float) -> str | None:
+    """Why a goal at (x, y) is where no robot can be: ``outside the bounds`` or ``inside
+    obstacles.j``; None when it is not. (A posted mission's goals and a goal added live.)"""
+    if not bounds.contains(x, y):
+        return "outside the bounds"
+    for j, ob in enumerate(obstacles):
+        if ob.contains(_xy(x, y))[0]:
+            return f"inside obstacles.{j}"
+    return None
+
+
+def goal_out_of_reach(
+    bounds: Bounds, obstacles: Sequence[Obstacle], x: float, y: float, tolerance: float
+) -> str | None:
+    """Why the tracked point cannot come near enough to a goal: the first unit's capsule
+    (radius r) is centred on the tracked point's axis, so the point can get no closer than r to
+    anything, and a goal counts within 0.4 of its tolerance. None when it can."""
+    r = DEFAULT_GEOMETRY.unit_radius
+    need = r - ARRIVE_FRACTION * tolerance
+    p = _xy(x, y)
+    if float(bounds.wall_clearance(p)[0]) < need:
+        return (
+            f"closer to a wall than the robot can reach ({r:g} m around the tracked point, "
+            "less 0.4 of the tolerance)"
+        )
+    for j, ob in enumerate(obstacles):
+        if float(ob.segment_clearance(p, p)[0]) < need:
+            return (
+                f"closer to obstacles.{j} than the robot can reach ({r:g} m around the tracked "
+                "point, less 0.4 of the tolerance)"
+            )
+    return None
+
+
+def body_overlap(
+    bounds: Bounds,
+    obstacles: Sequence[Obstacle],
+    pose: tuple[float, float, float],
+    joints: Sequence[float],
+) -> str | None:
+    """What the robot's whole body (head and four units) at ``pose`` overlaps: ``a wall`` or
+    ``obstacles.j``; None when it is clear."""
+    import numpy as np
+
+    contact = World(bounds, tuple(obstacles)).contact(
+        footprint(np.asarray(pose, dtype=float), np.asarray(joints, dtype=float))
+    )
+    if contact is None:
+        return None
+    return "a wall" if contact.obstacle < 0 else f"obstacles.{contact.obstacle}"
 
 
 class MissionSpec(BaseModel):
@@ -119,8 +175,15 @@ class MissionSpec(BaseModel):
             )
         return obstacles
 
+    # Set once this instance passed ``_consistent``: an instance validated elsewhere (a
+    # request's body in a validation process, ``app.service.validation``) and handed over as
+    # it is is not checked again (pydantic runs after-validators on instances too).
+    _checked: bool = PrivateAttr(default=False)
+
     @model_validator(mode="after")
     def _consistent(self) -> MissionSpec:
+        if self._checked:
+            return self
         if not self.goals and not self.chain:
             raise ValueError("goals: give at least one goal, or a chain of primitives")
         if self.goals and self.chain:
@@ -152,45 +215,26 @@ class MissionSpec(BaseModel):
         if not bounds.contains(self.start.x, self.start.y):
             raise ValueError("start: outside the bounds")
         for i, g in enumerate(self.goals):
-            if not bounds.contains(g.x, g.y):
-                raise ValueError(f"goals.{i}: outside the bounds")
-            for j, ob in enumerate(obstacles):
-                if ob.contains(_xy(g.x, g.y))[0]:
-                    raise ValueError(f"goals.{i}: inside obstacles.{j}")
+            misplaced = goal_misplaced(bounds, obstacles, g.x, g.y)
+            if misplaced is not None:
+                raise ValueError(f"goals.{i}: {misplaced}")
         for j, ob in enumerate(obstacles):
             if ob.contains(_xy(self.start.x, self.start.y))[0]:
                 raise ValueError(f"start: inside obstacles.{j}")
         self._body_fits(bounds, obstacles)
+        self._checked = True
         return self
 
     def _body_fits(self, bounds: Bounds, obstacles: list[Obstacle]) -> None:
         """The whole start body clear, and every goal reachable by the tracked point."""
-        import numpy as np
-
-        pose = np.array([self.start.x, self.start.y, self.start.psi])
-        contact = World(bounds, tuple(obstacles)).contact(
-            footprint(pose, np.asarray(self.start_joints()))
-        )
-        if contact is not None:
-            what = "a wall" if contact.obstacle < 0 else f"obstacles.{contact.obstacle}"
-            raise ValueError(f"start: the robot's body (head and four units) overlaps {what}")
-        # The first unit's capsule (radius r) is centred on the tracked point's axis: the point
-        # can get no closer than r to anything, and a goal counts within 0.4 of its tolerance.
-        r = DEFAULT_GEOMETRY.unit_radius
+        start = (self.start.x, self.start.y, self.start.psi)
+        overlap = body_overlap(bounds, obstacles, start, self.start_joints())
+        if overlap is not None:
+            raise ValueError(f"start: the robot's body (head and four units) overlaps {overlap}")
         for i, g in enumerate(self.goals):
-            need = r - ARRIVE_FRACTION * g.tolerance
-            p = _xy(g.x, g.y)
-            if float(bounds.wall_clearance(p)[0]) < need:
-                raise ValueError(
-                    f"goals.{i}: closer to a wall than the robot can reach ({r:g} m around "
-                    "the tracked point, less 0.4 of the tolerance)"
-                )
-            for j, ob in enumerate(obstacles):
-                if float(ob.segment_clearance(p, p)[0]) < need:
-                    raise ValueError(
-                        f"goals.{i}: closer to obstacles.{j} than the robot can reach "
-                        f"({r:g} m around the tracked point, less 0.4 of the tolerance)"
-                    )
+            unreachable = goal_out_of_reach(bounds, obstacles, g.x, g.y, g.tolerance)
+            if unreachable is not None:
+                raise ValueError(f"goals.{i}: {unreachable}")
 
     def unknown_primitive(self, known: Container[str]) -> tuple[int, str] | None:
         """The first chain step naming a primitive that is not in ``known``: (step, name)."""

@@ -33,3 +33,31 @@ ACTIVE = frozenset(
         MissionStatus.CANCELLING,
     }
 )
+
+# Where each status may go next (DESIGN §6). A running mission moves freely among the active
+# statuses; ``queued`` only starts (``planning``), is cancelled or fails (reconciliation); once
+# ``cancelling`` only a terminal status may follow (``succeeded``: it finished first), and nothing follows a terminal one. The
+# store refuses anything else: a worker's message still in flight after a cancel (``executing``,
+# ``replanning``) must not bring a cancelled mission back to life.
+_RUNNING = ACTIVE - {MissionStatus.CANCELLING}
+NEXT: dict[MissionStatus, frozenset[MissionStatus]] = {
+    MissionStatus.QUEUED: frozenset(
+        {
+            MissionStatus.PLANNING,
+            MissionStatus.CANCELLING,
+            MissionStatus.CANCELLED,
+            MissionStatus.FAILED,
+        }
+    ),
+    **{status: ACTIVE - {MissionStatus.PLANNING} | TERMINAL for status in _RUNNING},
+    MissionStatus.CANCELLING: TERMINAL,
+    **{status: frozenset() for status in TERMINAL},
+}
+
+
+def can_follow(current: str, new: str) -> bool:
+    """Whether a mission in status ``current`` may enter ``new`` (unknown statuses may not)."""
+    try:
+        return MissionStatus(new) in NEXT[MissionStatus(current)]
+    except ValueError:
+        return False

@@ -7,6 +7,10 @@ last). Here the posts that arrive while a batch is being written wait together f
 one: a burst costs a few hops and transactions, a lone post the same one hop as before. The
 store stays the source of truth: a mission is queued only once its row is committed, and an
 answer is sent only for a committed mission.
+
+A retried Idempotency-Key is answered with its mission before the queue is looked at: a client
+whose post was acknowledged gets it again (200) even while the queue is full; only new
+missions beyond ``max_queued`` are refused (``QueueFull``: 503), and nothing is stored for them.
 """
 
 from __future__ import annotations
@@ -20,7 +24,7 @@ from anyio import to_thread
 
 from app import timing
 from app.service.metrics import Metrics
-from app.service.supervisor import Supervisor
+from app.service.supervisor import QueueFull, Supervisor
 from app.store.models import MissionRow
 from app.store.repo import NewMission, Store
 
@@ -70,20 +74,42 @@ class Intake:
                         timings.add("batch", ms)  # hop and transaction, and within it
                         for name, span_ms in spans.spans:  # the lock's wait and the write
                             timings.add(f"batch.{name}", span_ms)
-                    if not done.done():  # a client gone meanwhile: its mission runs anyway
+                    if done.done():  # a client gone meanwhile: its mission runs anyway
+                        continue
+                    if result is None:
+                        done.set_exception(QueueFull())
+                    else:
                         done.set_result(result)
+                    # One post answered per turn of the event loop: a batch of large missions
+                    # (each answer is its whole request, serialized) would otherwise hold the
+                    # loop for all of their answers at once, and every other request with it.
+                    await asyncio.sleep(0)
         finally:
             self.writer = None
 
-    def _write(self, items: list[NewMission], spans: timing.Timings) -> list[Created]:
-        """In a thread: one transaction for the batch, then each new mission queued (the
-        store's spans go to ``spans``)."""
+    def _write(self, items: list[NewMission], spans: timing.Timings) -> list[Created | None]:
+        """In a thread: replays first, then as many new missions as the queue has room for
+        (None for the others), in one transaction; then each new mission queued (the store's
+        spans go to ``spans``)."""
+        replays = self.store.missions_by_key([key for _, _, key in items if key])
+        room = self.supervisor.room()
+        admitted: list[int] = []  # indices into items: replays, then new ones while room lasts
+        keys = set(replays)  # a key already used, or used earlier in this batch
+        for i, (_, _, key) in enumerate(items):
+            replay = bool(key) and key in keys
+            if replay or room > 0:
+                admitted.append(i)
+                room -= 0 if replay else 1
+                if key:
+                    keys.add(key)
         token = timing.current.set(spans)
         try:
-            results = self.store.create_missions(items)
+            stored = self.store.create_missions([items[i] for i in admitted]) if admitted else []
         finally:
             timing.current.reset(token)
-        for row, created in results:
+        results: list[Created | None] = [None] * len(items)
+        for i, (row, created) in zip(admitted, stored, strict=True):
+            results[i] = (row, created)
             if created:
                 self.metrics.created.inc()
                 self.supervisor.submit(row.id, force=True)

@@ -17,14 +17,30 @@ from primitives.task import LearningTask
 PROGRESS_SECONDS = 0.2
 
 
+class JobsFull(Exception):
+    """More learning jobs wait than ``max_queued`` allows (a 503 with Retry-After)."""
+
+
 class Jobs:
-    def __init__(self, store: Store, metrics: Metrics, workers: int = 1) -> None:
-        self.store, self.metrics = store, metrics
+    """Learning jobs, one at a time (``workers``); at most ``max_queued`` wait (the count is
+    kept here, where the queue is, and checked with the job's creation under one lock)."""
+
+    def __init__(
+        self, store: Store, metrics: Metrics, workers: int = 1, max_queued: int = 16
+    ) -> None:
+        self.store, self.metrics, self.max_queued = store, metrics, max_queued
         self.pool = ThreadPoolExecutor(workers, thread_name_prefix="learn")
         self.cancels: dict[str, threading.Event] = {}
+        self.waiting: set[str] = set()  # queued, not started yet
+        self.lock = threading.Lock()
 
     def start(self, request: dict[str, Any]) -> str:
-        row = self.store.create_job("learn", request)
+        """Store and queue a job; ``JobsFull`` (nothing stored) when too many wait."""
+        with self.lock:
+            if len(self.waiting) >= self.max_queued:
+                raise JobsFull()
+            row = self.store.create_job("learn", request)
+            self.waiting.add(row.id)
         self.cancels[row.id] = threading.Event()
         self.pool.submit(self._run, row.id, request)
         return row.id
@@ -35,6 +51,8 @@ class Jobs:
             return False
         self.cancels.setdefault(job_id, threading.Event()).set()
         if row.status == "queued":
+            with self.lock:
+                self.waiting.discard(job_id)
             self.store.update_job(job_id, status="cancelled", reason="cancelled before it started")
         return True
 
@@ -44,6 +62,8 @@ class Jobs:
         self.pool.shutdown(wait=True)
 
     def _run(self, job_id: str, request: dict[str, Any]) -> None:
+        with self.lock:
+            self.waiting.discard(job_id)
         cancel = self.cancels[job_id]
         if cancel.is_set():
             return

@@ -87,6 +87,7 @@ class AddGoal:
     x: float
     y: float
     tolerance: float
+    index: int = -1  # the index the server answered (it is the next: the worker checks)
     kind: str = "add_goal"
 
 

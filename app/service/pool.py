@@ -19,7 +19,7 @@ from typing import Protocol
 
 from app.executor.warm import warm_up
 from app.service.messages import Addressed, Job, Update, WorkerMessage
-from app.service.worker import SharedFlag, WarmUp, serve_missions
+from app.service.worker import SharedFlag, WarmUp, resident_bytes, serve_missions
 from app.settings import Settings
 from primitives.library import Library
 
@@ -57,6 +57,11 @@ class Worker(Protocol):
         """Whether the worker can take a mission."""
         ...
 
+    def memory(self) -> int | None:
+        """The worker's resident memory in bytes, as last known (None: not known). Never
+        blocks."""
+        ...
+
     def warm(self) -> bool:
         """Whether the worker has finished its warm-up (and is still there): a mission given
         now starts at once. Never blocks."""
@@ -66,8 +71,9 @@ class Worker(Protocol):
         """Kill the worker (whatever it is doing) and start a fresh one in its place."""
         ...
 
-    def stop(self) -> None:
-        """Ask the worker to exit (killing it if it does not), for the service's shutdown."""
+    def stop(self, timeout: float = STOP_SECONDS) -> None:
+        """Ask the worker to exit, killing it if it has not within ``timeout`` seconds (the
+        service's shutdown)."""
         ...
 
 
@@ -99,6 +105,7 @@ class ProcessWorker:
             self.settings.worker_nice,
             self.warm_up,
             self.warm_flag,
+            self.settings.worker_memory_bytes,  # its caches sized to its limit
         )
         self.process = CONTEXT.Process(
             target=serve_missions, args=args, name=f"mission-worker-{self.index}", daemon=True
@@ -135,6 +142,9 @@ class ProcessWorker:
     def alive(self) -> bool:
         return self.process.is_alive()
 
+    def memory(self) -> int | None:
+        return resident_bytes(self.process.pid) if self.process.pid else None
+
     def warm(self) -> bool:
         return self.warm_flag.is_set() and self.process.is_alive()
 
@@ -142,11 +152,11 @@ class ProcessWorker:
         self._kill()
         self._spawn()
 
-    def stop(self) -> None:
+    def stop(self, timeout: float = STOP_SECONDS) -> None:
         self.cancel_flag.set()
         if self.process.is_alive():
             self.jobs.put(None)
-            self.process.join(timeout=STOP_SECONDS)
+            self.process.join(timeout=timeout)
         self._kill()
 
     def _kill(self) -> None:

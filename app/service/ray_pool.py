@@ -23,7 +23,7 @@ from typing import Any
 from app.executor.warm import warm_up
 from app.service.messages import Addressed, Job, Update, WorkerMessage
 from app.service.pool import WorkerLost
-from app.service.worker import WarmUp, run_mission
+from app.service.worker import WarmUp, budget_caches, resident_bytes, run_mission
 from app.settings import Settings, cores, max_obstacles
 from primitives.library import Library
 
@@ -38,11 +38,18 @@ class MissionActor:
     """Runs missions one after another on a Ray worker; polled for their messages."""
 
     def __init__(
-        self, library: Library, ws_rate: float, niceness: int, warm: WarmUp | None
+        self,
+        library: Library,
+        ws_rate: float,
+        niceness: int,
+        warm: WarmUp | None,
+        memory: int | None = None,
     ) -> None:
         if niceness:
             with contextlib.suppress(OSError):
                 os.nice(niceness)  # on a shared machine the API keeps priority
+        if memory is not None:
+            budget_caches(memory)  # the planner's caches sized to the actor's limit
         self.library, self.ws_rate = library, ws_rate
         if warm is not None:  # in the constructor: no call (``ready``, ``begin``) runs before
             warm(library)  # kernels and motion tables loaded before the first mission comes
@@ -83,6 +90,10 @@ class MissionActor:
 
     def update(self, item: Addressed) -> None:
         self.updates.put(item)
+
+    def rss(self) -> int | None:
+        """This actor's resident memory in bytes (the server enforces its limit)."""
+        return resident_bytes()
 
 
 def connect(settings: Settings) -> None:
@@ -167,16 +178,23 @@ class RayWorker:
         self.lost = False
         self.pending: Any = None  # an unanswered poll: its messages must not be lost
         self.warmed: Any = None  # the ``started`` answer of the actor last seen warm
+        self.rss_asked: Any = None  # an unanswered ``rss`` call
+        self.rss_seen: int | None = None  # the actor's RSS as last answered
         self._spawn()
 
     def _spawn(self) -> None:
         settings = self.settings
         self.actor = self.remote.options(num_cpus=1, max_concurrency=4, max_restarts=0).remote(
-            self.library_ref, settings.ws_rate, settings.worker_nice, self.warm_up
+            self.library_ref,
+            settings.ws_rate,
+            settings.worker_nice,
+            self.warm_up,
+            settings.worker_memory_bytes,
         )
         # Answered once the constructor (the warm-up) has run: this actor is warm from then on.
         self.started: Any = self.actor.ready.remote()
         self.lost, self.pending = False, None
+        self.rss_asked, self.rss_seen = None, None
 
     def begin(self, job: Job) -> None:
         try:
@@ -207,6 +225,18 @@ class RayWorker:
     def alive(self) -> bool:
         return not self.lost
 
+    def memory(self) -> int | None:
+        """The actor's RSS as last answered; asks again (an actor call, never waited on)."""
+        asked = self.rss_asked
+        if asked is not None:
+            done, _ = self.ray.wait([asked], timeout=0)
+            if not done:
+                return self.rss_seen
+            with contextlib.suppress(self.ray.exceptions.RayError):
+                self.rss_seen = self.ray.get(asked, timeout=0)
+        self.rss_asked = self.actor.rss.remote()
+        return self.rss_seen
+
     def warm(self) -> bool:
         started = self.started  # this actor's, even if a restart (another thread) swaps it
         if self.lost:
@@ -229,7 +259,7 @@ class RayWorker:
         self._kill()
         self._spawn()
 
-    def stop(self) -> None:
+    def stop(self, timeout: float = 0.0) -> None:
         self._kill()
 
     def _kill(self) -> None:

@@ -1,6 +1,8 @@
 """Reconciliation: every mission the store calls active has a worker, every queued one a place
 in the queue. Run at start-up (after ``interrupt_unfinished``) and periodically, it ends missions
-whose worker is gone ``failed`` with a reason and re-queues queued missions the server lost."""
+whose worker is gone ``failed`` with a reason and re-queues queued missions the server lost. A
+mission whose end could not be written (a database fault) ends with the reason it had then
+(``database error: ...``), not as a lost worker."""
 
 from __future__ import annotations
 
@@ -8,6 +10,7 @@ import logging
 from datetime import timedelta
 from typing import TYPE_CHECKING
 
+from app.missions.status import MissionStatus
 from app.store.repo import Store, now
 
 if TYPE_CHECKING:
@@ -26,10 +29,14 @@ def reconcile(store: Store, supervisor: Supervisor) -> list[str]:
         with supervisor.lock:
             if mission_id in supervisor.running:
                 continue
-            if store.transition(mission_id, "failed", LOST):
-                ended.append(mission_id)
-        log.warning("mission %s had no worker: failed", mission_id)
-        supervisor.metrics.finished.labels("failed").inc()
+            status, reason = supervisor.unended.get(mission_id, (MissionStatus.FAILED, LOST))
+            written = store.transition(mission_id, status, reason)
+            supervisor.unended.pop(mission_id, None)  # written (or ended meanwhile)
+        if not written:
+            continue
+        ended.append(mission_id)
+        log.warning("mission %s had no worker: %s (%s)", mission_id, status, reason)
+        supervisor.metrics.finished.labels(status).inc()
         supervisor.publish_end(mission_id)
     with supervisor.lock:  # waiting, or started (its worker may not have said so yet)
         known = supervisor.known | supervisor.running

@@ -11,6 +11,7 @@ import asyncio
 import logging
 import threading
 import time
+from collections.abc import Callable
 from datetime import UTC, datetime, timedelta
 from typing import Any
 
@@ -53,6 +54,8 @@ class Relay:
         self.trees: dict[str, dict[str, Any]] = {}  # running mission -> latest tree snapshot
         self.shutting_down = threading.Event()
         self.pruned_at = 0.0  # monotonic time of the last retention sweep
+        # Told of every status change stored (the supervisor's live accounts follow them).
+        self.on_status: Callable[[str, MissionStatus], None] | None = None
 
     def publish(self, mission_id: str, frame: Frame) -> None:
         """Hand a frame to the hub (from any thread)."""
@@ -68,6 +71,8 @@ class Relay:
     ) -> None:
         """Store a status change, then broadcast it (nothing when the store refuses it)."""
         if self.store.transition(mission_id, status, reason, state):  # written before broadcast
+            if self.on_status is not None:
+                self.on_status(mission_id, status)
             self.publish(
                 mission_id, StatusEvent(type="event", kind="status", status=status, reason=reason)
             )
@@ -90,8 +95,14 @@ class Relay:
             log.info("retention: deleted %d missions that ended over %g days ago", gone, days)
         return gone
 
-    def handle(self, mission_id: str, message: WorkerMessage) -> bool:
-        """Store, then broadcast, one worker message; True at the end."""
+    def handle(
+        self,
+        mission_id: str,
+        message: WorkerMessage,
+        goals: list[dict[str, Any]] | None = None,
+    ) -> bool:
+        """Store, then broadcast, one worker message; True at the end (``goals``: the
+        mission's goals as the server accepted them, stored with its end)."""
         if isinstance(message, Publish):
             try:
                 frame = parse_frame(message.frame)
@@ -153,7 +164,7 @@ class Relay:
             status, reason = message.status, message.reason
             if status == MissionStatus.CANCELLED and self.shutting_down.is_set():
                 status, reason = MissionStatus.FAILED, "interrupted (server shut down)"
-            self.end(mission_id, status, reason, message.state)
+            self.end(mission_id, status, reason, message.state, goals)
             return True
         return False
 
@@ -163,14 +174,19 @@ class Relay:
         status: MissionStatus,
         reason: str,
         state: dict[str, Any] | None,
+        goals: list[dict[str, Any]] | None = None,
     ) -> None:
-        """Store the terminal status (with the last tree), then send the ``end`` frame."""
+        """Store the terminal status (with the last tree and, given, the mission's goals as the
+        server accepted them: one added just before the end is in the record, not reached),
+        then send the ``end`` frame."""
         tree = self.trees.pop(mission_id, None)
+        if (tree is not None or goals is not None) and state is None:
+            row = self.store.get_mission(mission_id)
+            state = dict(row.state or {}) if row is not None else {}
         if tree is not None:  # kept in the store, no longer in memory (GET /missions/{id}/tree)
-            if state is None:
-                row = self.store.get_mission(mission_id)
-                state = dict(row.state or {}) if row is not None else {}
-            state = {"tree": tree, **state}  # the worker's final tree, when it sent one, wins
+            state = {"tree": tree, **(state or {})}  # the worker's final tree, if sent, wins
+        if goals is not None:
+            state = {**(state or {}), "goals": goals}
         if self.store.transition(mission_id, status, reason, state):
             self.metrics.finished.labels(status).inc()
         if time.monotonic() - self.pruned_at > PRUNE_SECONDS:

@@ -18,7 +18,6 @@ import contextlib
 import logging
 import threading
 import time
-from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
 from sqlalchemy.exc import SQLAlchemyError
@@ -26,7 +25,8 @@ from sqlalchemy.exc import SQLAlchemyError
 from app.missions.status import TERMINAL, MissionStatus
 from app.service.frames import EndFrame, StatusEvent
 from app.service.hub import Hub
-from app.service.messages import Job, Update
+from app.service.live import LiveMission
+from app.service.messages import Ended, Job, Update
 from app.service.metrics import Metrics
 from app.service.pool import Worker, WorkerLost, make_workers
 from app.service.reconcile import reconcile
@@ -40,6 +40,7 @@ POLL_SECONDS = 0.5
 CANCEL_POLL_SECONDS = 0.1  # how often a cancelled mission's worker is looked at
 CANCEL_GRACE = 0.6  # seconds a worker has to honour a cancel before it is stopped
 WALL_GRACE = 5.0  # seconds past the wall-clock limit before a worker is stopped
+MEMORY_POLL_SECONDS = 0.2  # how often a running mission's worker's memory is looked at
 CANCELLED = "cancelled by request"
 # How often idle workers are looked at: one that died idle is replaced then, not only when a
 # mission comes for it (a dead worker is never warm: a pool of them would keep /readyz at 503,
@@ -58,12 +59,22 @@ class Supervisor:
         self.store, self.library, self.hub = store, library, hub
         self.settings, self.metrics = settings, metrics
         self.relay = Relay(store, hub, settings, metrics)
+        self.relay.on_status = self._status_stored
         self.workers: list[Worker] = []  # the pool, started with the service
-        self.pool = ThreadPoolExecutor(settings.max_running, thread_name_prefix="mission")
+        # A thread per running mission (at most max_running), a daemon: one stuck in a call
+        # that never returns (a worker hung in native code, a call to a lost Ray node) cannot
+        # hold the server's exit once the bounded shutdown gave up on it.
+        self.threads: set[threading.Thread] = set()
         self.assigned: dict[str, Worker] = {}  # running mission -> its worker
+        # Running mission -> the server's account of its goals, live obstacles and pause
+        # (``app.service.live``): the one owner the live-update routes read and change.
+        self.live: dict[str, LiveMission] = {}
         self.running: set[str] = set()
         self.cancel_asked: dict[str, float] = {}  # mission -> monotonic time of its cancel
         self.known: set[str] = set()  # submitted, not started yet (bounded by max_queued)
+        # Missions whose end could not be written (the database failed): the reconciliation
+        # ends them with this status and reason once it can, not as "worker lost".
+        self.unended: dict[str, tuple[MissionStatus, str]] = {}
         self.lock = threading.RLock()
         self.loop: asyncio.AbstractEventLoop | None = None
         self.queue: asyncio.Queue[str] | None = None
@@ -104,6 +115,11 @@ class Supervisor:
         self._keep(asyncio.create_task(self._replace_dead_idle()))
 
     async def stop(self) -> None:
+        """Stop within ``shutdown_seconds``: running missions are asked to stop (each ends
+        ``failed: interrupted (server shut down)``, its worker stopped), then every worker is
+        stopped, killed if it does not go; whatever is still stuck then is left behind (daemon
+        threads), and a mission still active is failed ``interrupted`` at the next start."""
+        deadline = time.monotonic() + self.settings.shutdown_seconds
         self.shutting_down.set()
         with self.lock:
             for mission_id, worker in self.assigned.items():
@@ -112,11 +128,34 @@ class Supervisor:
         for task in list(self.tasks):
             task.cancel()
         loop = asyncio.get_running_loop()
-        await loop.run_in_executor(None, self.pool.shutdown, True)
-        for worker in self.workers:
-            await loop.run_in_executor(None, worker.stop)
+        await loop.run_in_executor(None, self._join_missions, deadline)
+        left = await loop.run_in_executor(None, self._stop_workers, deadline)
+        if left:
+            log.error("shutdown: %d mission workers did not stop in time: left behind", left)
         self.workers = []  # their channels are freed now, not reported leaked at exit
         self.idle = None
+
+    def _join_missions(self, deadline: float) -> None:
+        """Wait for the mission threads until ``deadline`` (each ends its mission)."""
+        for thread in list(self.threads):
+            thread.join(max(0.0, deadline - time.monotonic()))
+        stuck = [t.name for t in self.threads if t.is_alive()]
+        if stuck:
+            log.error("shutdown: mission threads still running at the deadline: %s", stuck)
+
+    def _stop_workers(self, deadline: float) -> int:
+        """Stop every worker at once, each in a daemon thread, until ``deadline``; how many
+        had not stopped by then."""
+        grace = max(0.1, deadline - time.monotonic())
+        stoppers = [
+            threading.Thread(target=w.stop, args=(grace,), daemon=True, name="stop-worker")
+            for w in self.workers
+        ]
+        for thread in stoppers:
+            thread.start()
+        for thread in stoppers:
+            thread.join(max(0.0, deadline - time.monotonic()) + 1.0)  # (a kill takes a moment)
+        return sum(thread.is_alive() for thread in stoppers)
 
     def _keep(self, task: asyncio.Task[Any]) -> None:
         self.tasks.add(task)  # a held reference: an unreferenced task can vanish
@@ -125,6 +164,10 @@ class Supervisor:
     def full(self) -> bool:
         """Whether a new mission would exceed ``max_queued`` waiting missions."""
         return len(self.known) >= self.settings.max_queued
+
+    def room(self) -> int:
+        """How many more missions may wait now (``max_queued`` less those waiting)."""
+        return max(0, self.settings.max_queued - len(self.known))
 
     def warmth(self) -> tuple[int, int]:
         """(workers warm now, workers in the pool): a worker is warm once its warm-up ended
@@ -193,13 +236,30 @@ class Supervisor:
             self._keep(asyncio.create_task(self._run(mission_id, worker)))
 
     async def _run(self, mission_id: str, worker: Worker) -> None:
-        assert self.loop is not None
+        loop = asyncio.get_running_loop()
+        finished: asyncio.Future[None] = loop.create_future()
+
+        def done() -> None:
+            if not finished.done():
+                finished.set_result(None)
+
+        def work() -> None:
+            try:
+                self._work(mission_id, worker)
+            except Exception:  # the mission itself already recorded the failure
+                log.exception("mission %s: its thread crashed", mission_id)
+            finally:
+                self.threads.discard(thread)
+                with contextlib.suppress(RuntimeError):  # the loop is gone: nobody waits
+                    loop.call_soon_threadsafe(done)
+
+        thread = threading.Thread(target=work, daemon=True, name=f"mission-{mission_id[:8]}")
+        self.threads.add(thread)
+        thread.start()
         try:
-            await self.loop.run_in_executor(self.pool, self._work, mission_id, worker)
-        except Exception:  # the mission itself already recorded the failure
-            log.exception("mission %s: its thread crashed", mission_id)
+            await finished
         finally:
-            if self.idle is not None:  # None once the service stopped
+            if self.idle is not None and not self.shutting_down.is_set():
                 self.idle.put_nowait(worker)
 
     def cancel(self, mission_id: str) -> bool:
@@ -211,6 +271,9 @@ class Supervisor:
                 return False
             started = mission_id in self.running
             if started:
+                live = self.live.get(mission_id)
+                if live is not None:  # no live update applies from now on
+                    live.stopping = "cancelling"
                 self.cancel_asked.setdefault(mission_id, time.monotonic())
                 worker = self.assigned.get(mission_id)
                 if worker is not None:  # else _work passes it on when the worker has begun
@@ -239,6 +302,17 @@ class Supervisor:
                 mission_id, EndFrame(type="end", status=MissionStatus.CANCELLED, reason=reason)
             )
         return True
+
+    def _status_stored(self, mission_id: str, status: MissionStatus) -> None:
+        """A status change was stored: the live account follows it."""
+        live = self.live.get(mission_id)
+        if live is not None:
+            live.status = status
+
+    def live_goals(self, mission_id: str) -> list[dict[str, Any]] | None:
+        """A running mission's goals as its live account has them (None: not running)."""
+        live = self.live.get(mission_id)
+        return live.goals_now() if live is not None else None
 
     def publish_end(self, mission_id: str) -> None:
         """Tell websocket clients a mission ended (as the store now says)."""
@@ -282,8 +356,11 @@ class Supervisor:
                 worker.begin(job)
             with self.lock:
                 self.assigned[mission_id] = worker
+                live = LiveMission.of(mission_id, row.request)
                 if mission_id in self.cancel_asked:
                     worker.cancel()
+                    live.stopping = "cancelling"
+                self.live[mission_id] = live
             self._execute(mission_id, worker)
         except Exception as exc:  # never leave a mission active: fail it with the reason
             log.exception("mission %s failed unexpectedly", mission_id)
@@ -294,12 +371,21 @@ class Supervisor:
             else:
                 reason = f"server error ({type(exc).__name__})"
             self._replace(worker)  # nobody reads that mission's messages any more: stop it
-            with contextlib.suppress(Exception):  # the database may still be down: reconciled
+            try:
                 self.relay.end(mission_id, MissionStatus.FAILED, reason, None)
+            except Exception:  # the database may still be down: reconciled, with this reason
+                log.warning(
+                    "mission %s: its end could not be written; reconciled later", mission_id
+                )
+                with self.lock:
+                    self.unended[mission_id] = (MissionStatus.FAILED, reason)
         finally:
             with self.lock:
                 self.running.discard(mission_id)
                 self.assigned.pop(mission_id, None)
+                gone = self.live.pop(mission_id, None)
+                if gone is not None:
+                    gone.stopping = "ended"
                 self.cancel_asked.pop(mission_id, None)
                 self.relay.trees.pop(mission_id, None)
             self.metrics.running.dec()
@@ -309,21 +395,29 @@ class Supervisor:
         past the wall clock or ignores a cancel (the mission ends with the reason first)."""
         started = time.monotonic()
         wall_limit = self.settings.wall_limit
+        checked = 0.0  # when the worker's memory was last looked at
         while True:
-            stop = self._overdue(mission_id, started, wall_limit)
+            look = time.monotonic() - checked >= MEMORY_POLL_SECONDS
+            checked = time.monotonic() if look else checked
+            stop = self._overdue(mission_id, started, wall_limit, worker if look else None)
             if stop is not None:
-                self.relay.end(mission_id, *stop, None)
+                self.relay.end(mission_id, *stop, None, self.live_goals(mission_id))
                 self._replace(worker)
                 return
             poll = CANCEL_POLL_SECONDS if mission_id in self.cancel_asked else POLL_SECONDS
             try:
                 batch = worker.messages(poll)
             except WorkerLost as exc:
-                self.relay.end(mission_id, MissionStatus.FAILED, str(exc), None)
+                goals = self.live_goals(mission_id)
+                self.relay.end(mission_id, MissionStatus.FAILED, str(exc), None, goals)
                 self._replace(worker)
                 return
+            live = self.live.get(mission_id)
             for message in batch:
-                if self.relay.handle(mission_id, message):
+                if live is not None:
+                    live.observe(message)  # what the worker says of its goals, before relaying
+                goals = self.live_goals(mission_id) if isinstance(message, Ended) else None
+                if self.relay.handle(mission_id, message, goals):
                     return
 
     def _replace(self, worker: Worker) -> None:
@@ -334,11 +428,19 @@ class Supervisor:
             worker.restart()
 
     def _overdue(
-        self, mission_id: str, started: float, wall_limit: float
+        self, mission_id: str, started: float, wall_limit: float, worker: Worker | None = None
     ) -> tuple[MissionStatus, str] | None:
         """(status, reason) when a worker must be stopped: a cancel it did not honour within
-        ``CANCEL_GRACE``, or a wall-clock limit it overran by ``WALL_GRACE``."""
+        ``CANCEL_GRACE``, a wall-clock limit it overran by ``WALL_GRACE``, or more resident
+        memory than ``SCREWSNAKE_WORKER_MEMORY``."""
         now = time.monotonic()
+        rss = worker.memory() if worker is not None else None
+        limit = self.settings.worker_memory_bytes
+        if rss is not None and rss > limit:
+            return MissionStatus.FAILED, (
+                f"memory limit: the worker used {rss / 2**20:.0f} MB, over "
+                f"SCREWSNAKE_WORKER_MEMORY ({limit / 2**20:.0f} MB)"
+            )
         asked = self.cancel_asked.get(mission_id)
         if asked is not None and now - asked > CANCEL_GRACE:
             if self.shutting_down.is_set():

@@ -17,13 +17,14 @@ import socket
 import threading
 import time
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any, Protocol
 
 import py_trees
 
 from app.executor.runner import MissionError, MissionRunner, UpdateRefused
 from app.executor.warm import unfreeze_mission
-from app.missions.spec import MissionSpec
+from app.missions.spec import MissionSpec, body_overlap
 from app.missions.status import MissionStatus
 from app.service.messages import (
     AddGoal,
@@ -44,6 +45,8 @@ from app.service.messages import (
     WorkerMessage,
 )
 from app.service.world_history import WorldHistory
+from domain.navigation import planner as navigation_planner
+from domain.navigation.lattice import cache as motion_cache
 from primitives.library import Library
 from sim.obstacles import obstacle_from_dict
 
@@ -119,6 +122,26 @@ EVENTS_KEPT = 1000  # events kept in a mission's stored state (the newest)
 PACE_SLICE = 0.25  # longest wait while pacing: cancels and the wall clock are checked between
 
 
+# The planner's motion caches kept between replans, per process: the share of a worker's memory
+# limit (``SCREWSNAKE_WORKER_MEMORY``) they may take together, and the bytes a state's row holds.
+CACHE_SHARE = 0.5  # (the default limit keeps the planner's own default)
+ROW_BYTES = 200  # a state's row in one part (``domain.navigation.lattice.cache``, ~200 B)
+# The planner's own limit (what a worker with memory to spare keeps), read before any sizing.
+DEFAULT_ROWS = motion_cache.ROWS_LIMIT
+
+
+def budget_caches(memory: int) -> int:
+    """Size the planner's motion caches in this process to ``memory`` bytes (the worker's
+    limit): never above their default, which fits the default limit; a smaller limit gets
+    smaller caches (each of ``CACHES_KEPT`` caches keeps two parts of rows), so that a mission
+    staying within it is not ended by what the planner merely remembers. Returns the rows each
+    part may keep."""
+    parts = 2 * navigation_planner.CACHES_KEPT
+    rows = max(1000, min(DEFAULT_ROWS, int(memory * CACHE_SHARE) // (parts * ROW_BYTES)))
+    motion_cache.ROWS_LIMIT = rows
+    return rows
+
+
 def mission_state(runner: MissionRunner) -> dict[str, Any]:
     ctx = runner.ctx
     x, y, psi = ctx.pose
@@ -176,15 +199,40 @@ def news(runner: MissionRunner, events_sent: int, versions: int) -> list[WorkerM
     return out
 
 
+def last_open_goal(runner: MissionRunner, index: int) -> bool:
+    """Whether goal ``index`` is the only goal neither reached nor removed."""
+    goals = runner.ctx.goals
+    others = (g for i, g in enumerate(goals) if i != index and not (g.reached or g.removed))
+    return 0 <= index < len(goals) and not goals[index].reached and next(others, None) is None
+
+
 def apply_update(runner: MissionRunner, update: Update) -> list[WorkerMessage]:
-    """Apply a live update to the runner; the status change it causes, if any."""
+    """Apply a live update to the runner; the status change it causes, if any. The server
+    checked it against its account of the mission; what changed since (a goal reached, the
+    robot moved) is checked again here, and an update that no longer applies is refused with
+    an ``update`` event: it never ends the mission (a removed last goal would end it
+    ``succeeded`` with nothing reached, an obstacle on the body in a false ``unreachable``)."""
     try:
         if isinstance(update, AddGoal):
-            runner.add_goal(update.x, update.y, update.tolerance)
+            index = runner.add_goal(update.x, update.y, update.tolerance)
+            if 0 <= update.index != index:  # the server's account and the runner disagree
+                detail = {"answered": update.index, "index": index}
+                runner.ctx.event("update", update="add_goal index differs", detail=detail)
         elif isinstance(update, RemoveGoal):
+            if last_open_goal(runner, update.index):
+                raise UpdateRefused(
+                    f"goal {update.index} is the last goal not reached: cancel the mission instead"
+                )
             runner.remove_goal(update.index)
         elif isinstance(update, AddObstacle):
-            runner.add_obstacle(obstacle_from_dict(update.obstacle))
+            obstacle = obstacle_from_dict(update.obstacle)
+            ctx = runner.ctx
+            overlap = body_overlap(
+                ctx.spec.bounds.bounds(), [obstacle], ctx.pose, ctx.sensed_joints()
+            )
+            if overlap is not None:
+                raise UpdateRefused("the obstacle overlaps the robot's body where it is now")
+            runner.add_obstacle(obstacle)
         elif isinstance(update, Pause):
             runner.pause()
             return [Transition(MissionStatus.PAUSED, "pause requested", mission_state(runner))]
@@ -208,6 +256,18 @@ def watch_server(server_pid: int, period: float = 1.0) -> None:
             PermissionError,
         ):  # gone (or the pid now belongs to another user)
             os._exit(3)
+
+
+def resident_bytes(pid: int | None = None) -> int | None:
+    """A process's resident memory (RSS) in bytes, this one's by default; None if unknown."""
+    try:
+        fields = Path(f"/proc/{pid or 'self'}/statm").read_text().split()
+        return int(fields[1]) * PAGE_SIZE
+    except (OSError, ValueError, IndexError):
+        return None
+
+
+PAGE_SIZE = os.sysconf("SC_PAGE_SIZE") if hasattr(os, "sysconf") else 4096
 
 
 def where() -> str:
@@ -245,15 +305,19 @@ def serve_missions(
     niceness: int = 10,
     warm: WarmUp | None = None,
     warmed: Flag | None = None,
+    memory: int | None = None,
 ) -> None:
-    """A pool process's target: warm up (``warm``, if any), raise ``warmed``, then run each
-    job as it comes until None (or the server is gone)."""
+    """A pool process's target: size the planner's caches to ``memory`` (its limit), warm up
+    (``warm``, if any), raise ``warmed``, then run each job as it comes until None (or the
+    server is gone)."""
     threading.Thread(
         target=watch_server, args=(server_pid,), daemon=True, name="watch-server"
     ).start()
     if niceness:
         with contextlib.suppress(OSError):
             os.nice(niceness)  # the API process keeps priority: requests stay fast under load
+    if memory is not None:
+        budget_caches(memory)
     if warm is not None:
         warm(library)  # kernels and motion tables loaded before the first mission comes
     if warmed is not None:

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -9,6 +11,7 @@ from alembic import command
 from alembic.config import Config
 from sqlalchemy import Engine, create_engine, event
 from sqlalchemy.engine import make_url
+from sqlalchemy.exc import OperationalError
 
 MIGRATIONS = Path(__file__).parent / "migrations"
 
@@ -42,3 +45,52 @@ def migrate(engine: Engine) -> None:
     with engine.begin() as connection:
         config.attributes["connection"] = connection
         command.upgrade(config, "head")
+
+
+class DatabaseLost(OperationalError):
+    """The database file is not the one the server opened (deleted, or replaced by another):
+    what is written now would be lost at the next start. A database failure (503)."""
+
+    def __init__(self, detail: str) -> None:
+        super().__init__(detail, None, FileNotFoundError(detail))
+        self.reason = detail
+
+
+@dataclass(frozen=True)
+class DatabaseFile:
+    """A SQLite database's file as the server opened it (device and inode). Deleted under the
+    running server, SQLite goes on writing to the unlinked inode and every write seems to
+    succeed; replaced, the server writes to the old file while the next start reads the new one.
+    Either way nothing written from then on survives a restart."""
+
+    path: Path
+    device: int
+    inode: int
+
+    @classmethod
+    def of(cls, engine: Engine) -> DatabaseFile | None:
+        """The engine's database file (None: not a SQLite file, e.g. PostgreSQL or memory)."""
+        url = engine.url
+        if url.get_backend_name() != "sqlite" or url.database in (None, "", ":memory:"):
+            return None
+        path = Path(str(url.database)).resolve()
+        st = os.stat(path)
+        return cls(path, st.st_dev, st.st_ino)
+
+    def problem(self) -> str | None:
+        """Why the file is no longer the one opened (None while it is). Never names the path."""
+        try:
+            st = os.stat(self.path)
+        except FileNotFoundError:
+            return "the database file was deleted"
+        except OSError as exc:
+            return f"the database file cannot be looked at ({type(exc).__name__})"
+        if (st.st_dev, st.st_ino) != (self.device, self.inode):
+            return "the database file was replaced by another"
+        return None
+
+    def check(self) -> None:
+        """Raise ``DatabaseLost`` when the file is no longer the one opened."""
+        problem = self.problem()
+        if problem is not None:
+            raise DatabaseLost(problem)

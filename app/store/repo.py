@@ -15,13 +15,14 @@ from dataclasses import dataclass
 from datetime import UTC, datetime
 from typing import Any
 
-from sqlalchemy import Engine, delete, func, select, union, update
+from sqlalchemy import Engine, delete, func, select, text, union, update
 from sqlalchemy.exc import IntegrityError
 from sqlalchemy.orm import sessionmaker
 
 from app import timing
-from app.missions.status import ACTIVE, TERMINAL
+from app.missions.status import ACTIVE, TERMINAL, can_follow
 from app.store import blobs
+from app.store.db import DatabaseFile
 from app.store.models import (
     BlobRow,
     JobRow,
@@ -58,18 +59,29 @@ class Store:
         self.engine = engine
         self.sessions = sessionmaker(engine, expire_on_commit=False)
         self.lock = threading.RLock()
+        # A SQLite file as opened: every write first makes sure it is still that file.
+        self.file = DatabaseFile.of(engine)
 
     @contextmanager
     def _writing(self) -> Iterator[None]:
         """The write lock, held for the block; the wait for it (``lock``) and the block
-        (``write``) are spans of the request being served, if any."""
+        (``write``) are spans of the request being served, if any. Nothing is written to a
+        database file that was deleted or replaced (``DatabaseLost``)."""
         with timing.span("lock"):
             self.lock.acquire()
         try:
+            if self.file is not None:
+                self.file.check()
             with timing.span("write"):
                 yield
         finally:
             self.lock.release()
+
+    def probe(self) -> None:
+        """Readiness: the file is the one opened and a write commits (a row rewritten as it is:
+        a real write transaction, on SQLite and PostgreSQL alike). Raises what fails."""
+        with self._writing(), self.engine.begin() as conn:
+            conn.execute(text("UPDATE alembic_version SET version_num = version_num"))
 
     # -- missions ---------------------------------------------------------------------------
     def create_mission(
@@ -125,6 +137,14 @@ class Store:
             s.commit()
             return out
 
+    def missions_by_key(self, keys: Sequence[str]) -> dict[str, MissionRow]:
+        """The missions these Idempotency-Keys created (those that did)."""
+        if not keys:
+            return {}
+        with self.sessions() as s:
+            query = select(MissionRow).where(MissionRow.idempotency_key.in_(list(keys)))
+            return {row.idempotency_key or "": row for row in s.scalars(query)}
+
     def get_mission(self, mission_id: str) -> MissionRow | None:
         with self.sessions() as s:
             return s.get(MissionRow, mission_id)
@@ -159,10 +179,12 @@ class Store:
     def transition(
         self, mission_id: str, status: str, reason: str = "", state: dict[str, Any] | None = None
     ) -> bool:
-        """Append a transition and set the status, unless the mission already ended."""
+        """Append a transition and set the status; False (nothing written) when the lifecycle
+        forbids it (``app.missions.status.NEXT``): after an end, after ``cancelling`` anything
+        but an end, a mission going back to ``queued`` or ``planning``."""
         with self._writing(), self.sessions() as s:
             row = s.get(MissionRow, mission_id)
-            if row is None or row.status in TERMINAL:
+            if row is None or not can_follow(row.status, status):
                 return False
             t = now()
             row.status, row.reason, row.updated_at = str(status), reason, t

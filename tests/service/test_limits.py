@@ -150,6 +150,7 @@ def test_reconciliation_ends_missions_without_a_worker_and_requeues_lost_ones(
         store = c.app.state.services.store  # type: ignore[attr-defined]
         # As after a failed write: the store says executing, no worker runs it.
         orphan, _ = store.create_mission("orphan", {**GOAL}, None)
+        store.transition(orphan.id, "planning")
         store.transition(orphan.id, "executing")
         # Stored but never queued (e.g. the server lost it): it must still run.
         lost, _ = store.create_mission("lost", {**GOAL}, None)

@@ -73,8 +73,11 @@ class MotionCache:
     """The lethal and the risk parts of evaluated states, for one body and margin."""
 
     def __init__(
-        self, grid: LatticeGrid, table: MotionTable, cap: float, rows_limit: int = ROWS_LIMIT
+        self, grid: LatticeGrid, table: MotionTable, cap: float, rows_limit: int | None = None
     ) -> None:
+        # None: the module's limit as it is when the cache is made (a service process may
+        # size it to the memory it may use).
+        rows_limit = ROWS_LIMIT if rows_limit is None else rows_limit
         if rows_limit < 1:
             raise ValueError("rows_limit: at least 1 state")
         self.grid, self.table = grid, table
