@@ -30,9 +30,6 @@ import time
 from typing import Any
 
 import numpy as np
-
-from bench.fast_downward import FdRun, run_driver, run_unified_planning
-from domain.goal_order import LegGoal
 from domain.grid_clearance import world_clearance
 from domain.lattice import LatticeSettings, motion_table
 from domain.lattice_pddl import lattice_domain, lattice_problem
@@ -40,6 +37,9 @@ from domain.lattice_planner import LatticePlanner
 from domain.lattice_task import Clearance
 from domain.occupancy import WorldModelSettings
 from domain.worldmodel import WorldModel
+
+from bench.fast_downward import FdRun, run_driver, run_unified_planning
+from domain.goal_order import LegGoal
 from primitives.library import Library, load_bundled
 from sim.obstacles import Circle
 from sim.world import Bounds

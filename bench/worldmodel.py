@@ -16,8 +16,8 @@ import time
 from collections.abc import Callable
 
 import numpy as np
-
 from domain.worldmodel import RangeObservation, WorldModel
+
 from sim.obstacles import Circle, rectangle, unit_vectors
 from sim.world import Bounds, World, footprint
 

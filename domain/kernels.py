@@ -54,7 +54,7 @@ def _use_versioned_cache() -> None:
                 shutil.rmtree(other, ignore_errors=True)
     except OSError:  # a read-only install: numba then finds its own place
         return
-    numba.config.CACHE_DIR = str(here)
+    numba.config.CACHE_DIR = str(here)  # type: ignore[attr-defined]
 
 
 _use_versioned_cache()

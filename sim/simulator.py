@@ -136,9 +136,9 @@ class Simulator:
         start = self.joints.copy()
         travel = float(np.max(np.abs(target - start))) * self.geometry.body_length
         n = max(1, math.ceil(travel / self.check_step))
-        reached = start
+        reached: Array = start
         for i in range(1, n + 1):
-            phi = start + (i / n) * (target - start)
+            phi: Array = start + (i / n) * (target - start)
             if self.world.contact(footprint(self.pose, phi, self.geometry)) is not None:
                 return reached
             reached = phi

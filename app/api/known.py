@@ -23,20 +23,22 @@ def current_goals(row: MissionRow, live: list[dict[str, Any]] | None = None) -> 
     mission's live account has it (``live``), else as last saved."""
     posted: list[dict[str, Any]] = row.request.get("goals", [])
     saved: list[dict[str, Any]] = (row.state or {}).get("goals") or []
-    goals = live or saved or [
-        {"x": g["x"], "y": g["y"], "tolerance": g.get("tolerance", 0.1)} for g in posted
-    ]
+    goals = (
+        live
+        or saved
+        or [{"x": g["x"], "y": g["y"], "tolerance": g.get("tolerance", 0.1)} for g in posted]
+    )
     added = {int(e["detail"]["goal"]): float(e["t"]) for e in updates(row, "add_goal")}
     removed = {int(e["detail"]["goal"]): float(e["t"]) for e in updates(row, "remove_goal")}
     out = []
     for index, goal in enumerate(goals):
-        live = index >= len(posted)
+        added_live = index >= len(posted)
         out.append(
             GoalOut.model_validate(
                 goal
                 | {
-                    "source": "live" if live else "request",
-                    "added_at": added.get(index, 0.0) if live else 0.0,
+                    "source": "live" if added_live else "request",
+                    "added_at": added.get(index, 0.0) if added_live else 0.0,
                     "removed_at": removed.get(index),
                 }
             )

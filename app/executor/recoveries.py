@@ -62,8 +62,7 @@ class RecoveryNode(py_trees.composites.Composite):
         while True:
             child = recovery if self.recovering else pipeline
             self.current_child = child
-            for node in child.tick():
-                yield node
+            yield from child.tick()
             if not self.recovering:
                 if child.status == Status.SUCCESS:
                     self.stop(Status.SUCCESS)
@@ -126,8 +125,7 @@ class RoundRobin(py_trees.composites.Composite):
         while True:
             child = self.children[self.next]
             self.current_child = child
-            for node in child.tick():
-                yield node
+            yield from child.tick()
             if child.status == Status.RUNNING:
                 self.feedback_message = f"running {child.name}"
                 self.status = Status.RUNNING

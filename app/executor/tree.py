@@ -71,9 +71,7 @@ def goals_tree(name: str, ns: str, recovery: RecoverySettings) -> py_trees.behav
             ),
         ],
     )
-    return Selector(
-        name, memory=False, children=[GoalsReached("goals reached?", ns), navigate]
-    )
+    return Selector(name, memory=False, children=[GoalsReached("goals reached?", ns), navigate])
 
 
 def build_tree(

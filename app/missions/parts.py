@@ -237,9 +237,7 @@ class PlannerSpec(Strict):
         ),
     ] = "cost"
     heuristic: Annotated[
-        Literal[
-            "cost", "lattice", "roadmap", "hff", "hadd", "hmax", "lmcut", "landmark", "blind"
-        ],
+        Literal["cost", "lattice", "roadmap", "hff", "hadd", "hmax", "lmcut", "landmark", "blind"],
         Field(
             description=(
                 "cost: the obstacle heuristic, a cost-aware 2-D distance to the goal ('lattice' "

@@ -17,6 +17,7 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from domain.goal_order import LegGoal, order_goals
 from domain.navigation import search as searches
@@ -135,9 +136,11 @@ class Planner:
         relaxed = min(s.start_margin, float(np.min(slack)) - s.touch_deeper)
         sites = body[close] * r
 
-        def near(points: Array) -> Array:
+        def near(points: NDArray[np.floating]) -> NDArray[np.bool_]:
             gap = points[:, None, :] - sites[None, :, :]
-            out: Array = np.min(np.einsum("nsd,nsd->ns", gap, gap), axis=1) <= s.touch_radius**2
+            out: NDArray[np.bool_] = (
+                np.min(np.einsum("nsd,nsd->ns", gap, gap), axis=1) <= s.touch_radius**2
+            )
             return out
 
         shift = np.where(near(table.checks[k] * r), relaxed - s.start_margin, 0.0)
@@ -177,7 +180,9 @@ class Planner:
             clear = world.static_clearance() if static else world.lethal_clearance()
             at = np.ascontiguousarray(clear, dtype=float).ravel()
             beyond = None if static else world.continuation().ravel()
-            weights = step_weights(at, self.settings.margin, self.settings.costs, beyond, self.settings.resolution)
+            weights = step_weights(
+                at, self.settings.margin, self.settings.costs, beyond, self.settings.resolution
+            )
             free = float(np.linalg.norm(table.offset)) + goal.tolerance
             need = table.centroid_need()
             got = cost_map(
@@ -242,6 +247,7 @@ class Planner:
             table.turn_cost,
             table.blind_per_radian,
             self.settings.costs.contact_cost,
+            self.settings.costs.reverse_penalty,
         )
         whole = (slice(0, grid.nx), slice(0, grid.ny))
         return CostHeuristic(task, distances, whole, reach, align=align)
@@ -304,7 +310,9 @@ class Planner:
         plan = Plan([], [g.index for g in order], shape=table.shape)
         here_key = start
         for leg, goal in enumerate(order):
-            task = self.task(table, inputs, cache, here_key, goal, leg == 0, deadline, request.cancel)
+            task = self.task(
+                table, inputs, cache, here_key, goal, leg == 0, deadline, request.cancel
+            )
             heuristic = self.leg_heuristic(task, maps[goal.index])
             s = self.settings.search
             found = searches.run(
@@ -319,7 +327,9 @@ class Planner:
             plan.legs.append(task)
             if found.status == "solved":
                 assert found.plan is not None
-                actions, here_key = self.actions_of(task, [op.name for op in found.plan], found.plan)
+                actions, here_key = self.actions_of(
+                    task, [op.name for op in found.plan], found.plan
+                )
                 self.keep_for_export(task, actions, here_key)
                 plan.actions += actions
                 continue
@@ -445,4 +455,3 @@ class _Root:
 
     def __init__(self, state: Any) -> None:
         self.state = state
-

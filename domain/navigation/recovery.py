@@ -15,6 +15,7 @@ import math
 from collections.abc import Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from domain.goal_order import LegGoal
 from domain.navigation.feasibility import Feasibility
@@ -35,7 +36,7 @@ JOINT_RATE = 0.5  # rad per model second the joints turn during a commanded shap
 
 def sweep_keeps_clear(
     world: WorldModel,
-    pose: Sequence[float],
+    pose: ArrayLike,
     bodies: Sequence[tuple[Array, Array]],
     margin: float,
     deeper: float = 0.0,
@@ -60,15 +61,16 @@ def sweep_keeps_clear(
 
 def primitive_clear(
     world: WorldModel,
-    pose: Sequence[float],
-    joints: Sequence[float],
+    pose: ArrayLike,
+    joints: ArrayLike,
     entry: Primitive,
     margin: float,
     deeper: float = 0.0,
 ) -> bool:
     """Whether running ``entry`` from ``pose`` keeps clear (``sweep_keeps_clear``)."""
     start = np.asarray(pose, dtype=float)
-    swept = np.asarray(entry.swept or [(0.0, 0.0, 0.0), entry.end_pose], dtype=float)
+    ends = [(0.0, 0.0, 0.0), entry.end_pose or (0.0, 0.0, 0.0)]
+    swept = np.asarray(entry.swept or ends, dtype=float)
     poses = compose(start[None, :], swept)
     j = np.asarray(joints, dtype=float)
     return sweep_keeps_clear(world, start, [(p, j) for p in poses], margin, deeper)
@@ -77,9 +79,9 @@ def primitive_clear(
 def back_off(
     library: Library,
     shape: str,
-    joints: Sequence[float],
+    joints: ArrayLike,
     world: WorldModel,
-    pose: Sequence[float],
+    pose: ArrayLike,
     side: str | None,
     part: int | None,
     settings: NavigationSettings,
@@ -120,25 +122,31 @@ def _angle(entry: Primitive) -> float:
     return math.degrees(math.atan2(entry.end_pose[1], entry.end_pose[0])) % 360.0
 
 
-def _away_from_closest(world: WorldModel, pose: Sequence[float], joints: Sequence[float]) -> float:
+def _away_from_closest(world: WorldModel, pose: ArrayLike, joints: ArrayLike) -> float:
     """The body angle pointing away from the closest lethal point (degrees, body frame)."""
     fp = footprint(np.asarray(pose, dtype=float), np.asarray(joints, dtype=float))
     points, needs = capsule_samples(fp.starts, fp.ends, fp.radii)
     slack = world.clearance_at(points) - needs
     worst = points[int(np.argmin(slack))]
     r = world.grid.resolution
-    gx = float(world.clearance_at((worst + [r, 0.0])[None])[0] - world.clearance_at((worst - [r, 0.0])[None])[0])
-    gy = float(world.clearance_at((worst + [0.0, r])[None])[0] - world.clearance_at((worst - [0.0, r])[None])[0])
-    world_angle = math.atan2(gy, gx) if (gx or gy) else float(pose[2])
-    return math.degrees(world_angle - float(pose[2])) % 360.0
+    gx = float(
+        world.clearance_at((worst + np.array([r, 0.0]))[None])[0]
+        - world.clearance_at((worst - np.array([r, 0.0]))[None])[0]
+    )
+    gy = float(
+        world.clearance_at((worst + np.array([0.0, r]))[None])[0]
+        - world.clearance_at((worst - np.array([0.0, r]))[None])[0]
+    )
+    world_angle = math.atan2(gy, gx) if (gx or gy) else float(np.asarray(pose, dtype=float)[2])
+    return math.degrees(world_angle - float(np.asarray(pose, dtype=float)[2])) % 360.0
 
 
 def spin(
     library: Library,
     shape: str,
-    joints: Sequence[float],
+    joints: ArrayLike,
     world: WorldModel,
-    pose: Sequence[float],
+    pose: ArrayLike,
     settings: NavigationSettings,
     direction: int = 1,
 ) -> Primitive | None:
@@ -152,7 +160,7 @@ def spin(
     return None
 
 
-def reshape_duration(joints_from: Sequence[float], joints_to: Sequence[float], tick: float) -> float:
+def reshape_duration(joints_from: ArrayLike, joints_to: ArrayLike, tick: float) -> float:
     """Model seconds a shape change takes: the largest joint travel at ``JOINT_RATE``, in
     whole control ticks."""
     travel = float(np.max(np.abs(np.subtract(joints_to, joints_from))))
@@ -162,9 +170,9 @@ def reshape_duration(joints_from: Sequence[float], joints_to: Sequence[float], t
 def reshape_options(
     library: Library,
     shape: str,
-    joints: Sequence[float],
+    joints: ArrayLike,
     world: WorldModel,
-    pose: Sequence[float],
+    pose: ArrayLike,
     goals: Sequence[LegGoal],
     settings: NavigationSettings,
     view: HeadView | None = None,
@@ -182,7 +190,9 @@ def reshape_options(
     out = []
     for name in others:
         target = np.asarray(SHAPES[name].joints, dtype=float)
-        bodies = [(start, here + s * (target - here)) for s in np.linspace(0.0, 1.0, RESHAPE_SAMPLES)]
+        bodies = [
+            (start, here + s * (target - here)) for s in np.linspace(0.0, 1.0, RESHAPE_SAMPLES)
+        ]
         if not sweep_keeps_clear(world, start, bodies, settings.margin):
             continue
         joints_to = (float(target[0]), float(target[1]), float(target[2]))

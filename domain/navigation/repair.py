@@ -126,8 +126,7 @@ class Repairer:
             table, inputs, cache, start, request.goals[0], True, deadline, request.cancel
         )
         valid = [
-            bool((probe.valid(steps[n].state)[0] >> int(steps[n].motion or 0)) & 1)
-            for n in moves
+            bool((probe.valid(steps[n].state)[0] >> int(steps[n].motion or 0)) & 1) for n in moves
         ]
         bad = np.flatnonzero(~np.array(valid))
         if on is not None and bad.size == 0:
@@ -161,16 +160,16 @@ class Repairer:
             return None
         s = planner.settings.search
         try:
-            found = searches.run(task, heuristic, searches.COST_SEARCH, s.weight, s.repair_expansions)
+            found = searches.run(
+                task, heuristic, searches.COST_SEARCH, s.weight, s.repair_expansions
+            )
         except SearchStopped as stop:
             if stop.status == "cancelled":
                 raise
             return None
         if found.status != "solved" or found.plan is None:
             return None
-        found_actions, end = planner.actions_of(
-            task, [op.name for op in found.plan], found.plan
-        )
+        found_actions, end = planner.actions_of(task, [op.name for op in found.plan], found.plan)
         detour = [a for a in found_actions if a.name == "move"]
         rest = at[grid.encode(end)]
         actions = [s.action for s in steps[:leave]] + detour + [s.action for s in steps[rest:]]
@@ -260,4 +259,3 @@ def _visits_goals(steps: Sequence[PlanStep], goals: Sequence[LegGoal], ordered: 
         <= leg_reach(by_index[s.goal]) + 1e-9
         for s in visits
     )
-

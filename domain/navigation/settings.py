@@ -36,6 +36,9 @@ class CostSettings:
     """a motion whose body passes at zero slack costs (1 + this) times its length"""
     contact_cost: float = 10.0
     """metres a plan would go round to avoid one expected contact"""
+    reverse_penalty: float = 1.0
+    """a move the tail leads costs (1 + this) times its length, a sideways one (1 + this / 2):
+    the head's rays look where the head goes (Smac's reverse penalty)"""
     narrow_weight: float = 10.0
     """how many times a metre costs the heuristic where the body's centroid cannot keep the
     margin (a passage only a turned or a rounded body might pass): the search tries the roomy
@@ -45,15 +48,19 @@ class CostSettings:
     room to change its heading (the resting body's farthest point would sweep the margin in
     one heading step): a straight narrow passage is still taken, a bent one only when
     nothing roomier leads there"""
-    blocked_cost: float = 1.0
-    """metres a plan would go round to avoid a move that would find its way blocked (an
-    approach that sensing then stops, and a replan)"""
+    blocked_cost: float = 3.0
+    """metres a plan would go round to avoid a move that would find its way blocked: the
+    approach that sensing then stops, the way back out and a replan (a few body lengths)"""
 
     def __post_init__(self) -> None:
         _check_finite(self, "cost settings")
         if not (self.inflation_radius >= 0 and self.inflation_decay > 0):
             raise ValueError("cost settings: inflation_radius >= 0 and inflation_decay > 0")
-        if min(self.inflation_penalty, self.contact_cost, self.blocked_cost) < 0 or min(self.narrow_weight, self.cramped_weight) < 1:
+        if (
+            min(self.inflation_penalty, self.contact_cost, self.blocked_cost, self.reverse_penalty)
+            < 0
+            or min(self.narrow_weight, self.cramped_weight) < 1
+        ):
             raise ValueError("cost settings: penalties must be >= 0")
 
 
@@ -148,7 +155,16 @@ class FollowSettings:
 
     def __post_init__(self) -> None:
         _check_finite(self, "follow settings")
-        if min(self.off_plan, self.off_plan_turn, self.shape_tolerance, self.progress_radius, self.progress_turn) <= 0:
+        if (
+            min(
+                self.off_plan,
+                self.off_plan_turn,
+                self.shape_tolerance,
+                self.progress_radius,
+                self.progress_turn,
+            )
+            <= 0
+        ):
             raise ValueError("follow settings: distances and tolerances must be positive")
         if self.arrive_tries < 1 or self.lookahead < 1 or not self.no_progress_time > 0:
             raise ValueError("follow settings: arrive_tries, lookahead >= 1, no_progress_time > 0")

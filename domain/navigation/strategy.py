@@ -126,7 +126,9 @@ class NavigationStrategy:
         latency = (time.perf_counter() - t0) * 1e3
         new = out.pddl_plan if isinstance(out, Plan) else []
         status = "solved" if isinstance(out, Plan) else out.status
-        record = ReplanRecord(trigger.kind, trigger.detail(), round(s.t, 3), latency, old, new, status)
+        record = ReplanRecord(
+            trigger.kind, trigger.detail(), round(s.t, 3), latency, old, new, status
+        )
         plan = out if isinstance(out, Plan) else None
 
         def export() -> str:  # the plan's graph is not changed after this replan
@@ -160,7 +162,12 @@ class NavigationStrategy:
         self._checked = now
         first = self.index + (1 if self.running is not None else 0)
         blocked = self._lookahead.first_blocked(
-            plan, table, first, self.planner.grid, self.settings.margin, situation.world.clearance_at
+            plan,
+            table,
+            first,
+            self.planner.grid,
+            self.settings.margin,
+            situation.world.clearance_at,
         )
         if blocked is None:
             return None
@@ -181,7 +188,10 @@ class NavigationStrategy:
                 if done.name == "move":
                     self.index += 1
                     off = self._offset(situation, done.target)
-                    if math.hypot(off[0], off[1]) > follow.off_plan or abs(off[2]) > follow.off_plan_turn:
+                    if (
+                        math.hypot(off[0], off[1]) > follow.off_plan
+                        or abs(off[2]) > follow.off_plan_turn
+                    ):
                         return NoProgress(done.pddl, "the move ended far from its planned state")
             if self.index >= len(plan.actions):
                 return None

@@ -143,7 +143,10 @@ class WorldModel:
         (a recovery: what sensing finds again there comes back); whether anything went."""
         grid = self.grid
         x, y = centre
-        (i0, j0), (i1, j1) = grid.cell_of(x - radius, y - radius), grid.cell_of(x + radius, y + radius)
+        (i0, j0), (i1, j1) = (
+            grid.cell_of(x - radius, y - radius),
+            grid.cell_of(x + radius, y + radius),
+        )
         i0, j0, i1, j1 = max(i0, 0), max(j0, 0), min(i1 + 1, grid.nx), min(j1 + 1, grid.ny)
         if i0 >= i1 or j0 >= j1:
             return False

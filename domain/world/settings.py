@@ -115,7 +115,9 @@ class CostmapSettings:
     def continuation_log_free(self, distance: NDArray[np.float64]) -> NDArray[np.float64]:
         """log P(free) of never-observed cells ``distance`` metres (between centres, less half a
         cell) from the nearest sensed cell."""
-        q = self.continuation_probability * np.exp(-np.maximum(distance, 0.0) / self.continuation_decay)
+        q = self.continuation_probability * np.exp(
+            -np.maximum(distance, 0.0) / self.continuation_decay
+        )
         out: NDArray[np.float64] = np.where(distance <= self.continuation_reach, np.log1p(-q), 0.0)
         return out
 

@@ -8,7 +8,6 @@ import math
 
 import numpy as np
 import pytest
-
 from scipy import ndimage
 
 from domain.world import CostmapSettings, RangeObservation, WorldModel, range_observations
@@ -16,7 +15,7 @@ from domain.world.contact import touched_side
 from sim.obstacles import Circle, Obstacle, Polygon, point_segment_distance, rectangle, unit_vectors
 from sim.robot import head_tip
 from sim.sensors import SensorSuite, forward_ir, range_ring
-from sim.world import Bounds, World, footprint
+from sim.world import Bounds, World
 
 SIGMA = 0.02
 IR_FOV = math.radians(10)
@@ -127,7 +126,9 @@ def test_known_corridor_is_exactly_030_wide_and_the_robot_fits(shift):
     bounds = Bounds(-2.0, 2.0, -1.0 + shift, 1.0 + shift)  # every alignment of cells to the walls
     model = WorldModel(bounds, CORRIDOR)
     inside = np.abs(model.grid.ys) < 0.15
-    np.testing.assert_allclose(model.lethal_clearance()[40, inside], 0.15 - np.abs(model.grid.ys[inside]))
+    np.testing.assert_allclose(
+        model.lethal_clearance()[40, inside], 0.15 - np.abs(model.grid.ys[inside])
+    )
     # The robot is 0.15 m wide: straight along the axis it keeps 0.075 m from each wall.
     axis = np.stack([np.linspace(-1.0, 0.9, 40), np.zeros(40)], axis=-1)
     # Between centres the bilinear reading of the distance cone errs low, by at most half a cell.

@@ -3,12 +3,14 @@
 A motion is **valid** where every swept sample point keeps the clearance it needs plus the
 margin from the lethal layer, and it ends on the grid. A valid motion **costs**, in metres,
 
-    length x (1 + inflation_penalty x closeness)
+    length x (1 + inflation_penalty x closeness + reverse_penalty x tail_lead)
       + contact_cost x E[contacts] + blocked_cost x E[blocks],
 
 where ``closeness = exp(-slack / inflation_decay)`` at the body's closest point (slack: its
 clearance beyond need and margin; nothing past ``inflation_radius``), Nav2's inflation and
-cost penalty measured on the swept body itself; ``E[contacts]`` the obstacles expected in the
+cost penalty measured on the swept body itself; ``tail_lead`` 0 for a head-first move, 1/2
+sideways, 1 tail first (Smac's reverse penalty: the head's rays look where the head goes);
+``E[contacts]`` the obstacles expected in the
 blind new cells, ``-log P(free)`` of each summed (``domain.world``'s risk; for a cell of
 never-observed space its prior, for one beside a bumper's contact far more), and
 ``E[blocks]`` the same over the new cells the head sees first, with what may block them. The
@@ -58,6 +60,7 @@ class KernelTable:
     deltas: NDArray[np.int64]
     cell_reach: NDArray[np.int64]
     lengths: Array
+    lead_lengths: Array  # [M] length x how far the tail leads (``motions.tail_lead``)
     cells: NDArray[np.int64]
     cell_segments: NDArray[np.int64]
     open_need: float  # centroid clearance beyond which every point keeps its need + margin
@@ -107,6 +110,7 @@ def kernel_table(table: MotionTable, margin: float) -> KernelTable:
         np.ascontiguousarray(table.deltas, dtype=np.int64),
         np.asarray(table.cell_reach, dtype=np.int64),
         np.ascontiguousarray(table.lengths, dtype=np.float64),
+        np.ascontiguousarray(table.lengths * table.leads, dtype=np.float64),
         cells,
         cell_segments,
         table.open_clearance + table.settings.resolution + margin,
@@ -118,7 +122,8 @@ def kernel_table(table: MotionTable, margin: float) -> KernelTable:
 
 
 def cost_parameters(costs: CostSettings) -> Array:
-    """``[inflation radius, decay, penalty, contact cost, blocked cost]`` for the kernels."""
+    """``[inflation radius, decay, penalty, contact cost, blocked cost, reverse penalty]`` for
+    the kernels."""
     return np.array(
         [
             costs.inflation_radius,
@@ -126,6 +131,7 @@ def cost_parameters(costs: CostSettings) -> Array:
             costs.inflation_penalty,
             costs.contact_cost,
             costs.blocked_cost,
+            costs.reverse_penalty,
         ]
     )
 
@@ -169,6 +175,7 @@ def lethal_part(  # pragma: no cover - compiled
     deltas: Array,
     cell_reach: Array,
     lengths: Array,
+    lead_lengths: Array,
     params: Array,
     base: Array,
 ) -> int:
@@ -186,7 +193,7 @@ def lethal_part(  # pragma: no cover - compiled
     cx = geo[0] + (i + 0.5) * geo[2]
     cy = geo[1] + (j + 0.5) * geo[2]
     n_motions = check_segments.shape[1] - 1
-    radius, decay, penalty = params[0], params[1], params[2]
+    radius, decay, penalty, reverse = params[0], params[1], params[2], params[5]
     open_space = values[i, j] >= open_need + radius
     reach = cell_reach[k]
     edge = not (reach <= i < nx - reach and reach <= j < ny - reach)
@@ -227,7 +234,7 @@ def lethal_part(  # pragma: no cover - compiled
             continue
         bits |= 1 << m
         close = math.exp(-slack / decay) if slack < radius else 0.0
-        base[m] = lengths[m] * (1.0 + penalty * close)
+        base[m] = lengths[m] * (1.0 + penalty * close) + reverse * lead_lengths[m]
     return bits
 
 
@@ -288,7 +295,7 @@ class CostInputs:
     geo: Array
     risk: Array
     blocked: Array
-    quiet: Array
+    quiet: NDArray[np.bool_]
     params: Array
 
 
@@ -300,7 +307,7 @@ def lethal_costs(
     bits = lethal_part(
         number, inputs.nx, inputs.ny, inputs.values, inputs.geo, kt.open_need, kt.checks,
         kt.check_needs, kt.check_fails, kt.check_points, kt.grouped, kt.check_segments,
-        kt.deltas, kt.cell_reach, kt.lengths, inputs.params, base,
+        kt.deltas, kt.cell_reach, kt.lengths, kt.lead_lengths, inputs.params, base,
     )  # fmt: skip
     return int(bits), base
 
@@ -334,16 +341,12 @@ def quiet_cells(risk: Array, blocked: Array, reach: int) -> NDArray[np.bool_]:
     i1 = np.clip(np.arange(nx) + reach + 1, 0, nx)
     j0 = np.clip(np.arange(ny) - reach, 0, ny)
     j1 = np.clip(np.arange(ny) + reach + 1, 0, ny)
-    box = (
-        total[i1][:, j1] - total[i0][:, j1] - total[i1][:, j0] + total[i0][:, j0]
-    )
+    box = total[i1][:, j1] - total[i0][:, j1] - total[i1][:, j0] + total[i0][:, j0]
     out: NDArray[np.bool_] = box == 0
     return out
 
 
-def with_start_margins(
-    kt: KernelTable, k: int, shift: Array, point_shift: Array
-) -> KernelTable:
+def with_start_margins(kt: KernelTable, k: int, shift: Array, point_shift: Array) -> KernelTable:
     """``kt`` with bin ``k``'s margins moved by ``shift`` per cell and ``point_shift`` per
     grouped point (the start's own allowance: ``Planner.start_table``)."""
     passes, fails = np.array(kt.check_needs, copy=True), np.array(kt.check_fails, copy=True)

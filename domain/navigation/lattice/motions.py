@@ -67,6 +67,17 @@ class HeadView:
         return cls.of((*forward_ir(0.8), *range_ring(8, 1.0)))
 
 
+def tail_lead(motion: Motion) -> float:
+    """How far the tail leads a translation, ``(1 + cos θ) / 2`` of the angle θ between its
+    direction and the body's axis towards the tail: 0 head first, 1/2 sideways, 1 tail first; 0
+    for a turn in place (its swinging ends pay for what they sweep blind instead)."""
+    dx, dy = float(motion.end[0]), float(motion.end[1])
+    length = math.hypot(dx, dy)
+    if length < 1e-9 or abs(float(motion.end[2])) > 1e-9:
+        return 0.0
+    return 0.5 * (1.0 + dx / length)  # e(ψ), the body frame's x axis, points to the tail
+
+
 @dataclass(frozen=True)
 class Motion:
     """One lattice primitive of the library as the planner uses it."""
@@ -181,6 +192,7 @@ class MotionTable:
     segments: list[NDArray[np.int64]] = field(init=False)  # per bin: start index per motion
     names: list[str] = field(init=False)  # PDDL names of the motions' primitives
     lengths: Array = field(init=False)  # [M] metres each motion's body points travel on average
+    leads: Array = field(init=False)  # [M] how far the tail leads: 0 head first, 1 tail first
     cells: list[NDArray[np.int64]] = field(init=False)  # per bin: new cells (di, dj, blind) [N, 3]
     cell_segments: list[NDArray[np.int64]] = field(init=False)  # per bin: [M + 1] bounds
     checks: list[NDArray[np.int64]] = field(init=False)  # per bin: cells a motion's points fall in
@@ -238,6 +250,7 @@ class MotionTable:
             lengths.append(_travel(poses, area))
             cells_m.append(_new_cells(starts, poses, area, rays, r))
         self.lengths = np.array(lengths, dtype=np.float64)
+        self.leads = np.array([tail_lead(m) for m in self.motions], dtype=np.float64)
         self.points, self.needs, self.segments = [], [], []
         self.cells, self.cell_segments = [], []
         for k in range(K):
@@ -268,9 +281,9 @@ class MotionTable:
             bounds = np.cumsum([0, *(len(c.cells) for c in parts)])
             self.check_segments.append(bounds.astype(np.int64))
             offsets, first = [], 0
-            for c in parts:
-                offsets.append(c.bounds[:-1] + first)
-                first += len(c.points)
+            for part in parts:
+                offsets.append(part.bounds[:-1] + first)
+                first += len(part.points)
             self.check_points.append(np.concatenate([*offsets, [first]]).astype(np.int64))
         # Clearance at the centroid beyond which every motion is free (clearance is
         # 1-Lipschitz: no point lies further than `reach` from the centroid).
@@ -365,9 +378,7 @@ class MotionTable:
         fp = footprint(np.zeros(3), self.joints, self.geometry)
         c = self.offset
         ab = fp.ends - fp.starts
-        s = np.clip(
-            np.sum((c - fp.starts) * ab, -1) / np.maximum(np.sum(ab * ab, -1), 1e-12), 0, 1
-        )
+        s = np.clip(np.sum((c - fp.starts) * ab, -1) / np.maximum(np.sum(ab * ab, -1), 1e-12), 0, 1)
         d = np.linalg.norm(fp.starts + s[:, None] * ab - c, axis=-1)
         return float(max(0.0, np.max(fp.radii - d)))
 

@@ -107,7 +107,9 @@ class LatticeGraph:
         return graph
 
 
-def lattice_problem(legs: LatticeTask | Sequence[LatticeTask] | LatticeGraph, shape: str) -> Problem:
+def lattice_problem(
+    legs: LatticeTask | Sequence[LatticeTask] | LatticeGraph, shape: str
+) -> Problem:
     """The generated part of the lattice as a PDDL problem: one leg's task, every leg of a
     tour (their lattices merged, one goal point per leg, all to be visited), or a graph put
     together otherwise (a repaired plan's). ``shape`` is the lattice's body shape.
@@ -115,18 +117,20 @@ def lattice_problem(legs: LatticeTask | Sequence[LatticeTask] | LatticeGraph, sh
     A tour's goals are a conjunction, so the problem does not state an order: a peer planner
     may visit ordered goals in another order (the plan is still valid on the lattice).
     """
-    if isinstance(legs, LatticeGraph):
+    if isinstance(legs, LatticeTask):
+        graph = LatticeGraph.of_legs([legs])
+    elif isinstance(legs, LatticeGraph):
         graph = legs
     else:
-        graph = LatticeGraph.of_legs([legs] if isinstance(legs, LatticeTask) else list(legs))
-    edges = graph.edges
-    states = {graph.start_number, *[a for a, _, _ in edges], *[b for _, b, _ in edges]}
+        graph = LatticeGraph.of_legs(list(legs))
+    moves = graph.edges
+    states = {graph.start_number, *[a for a, _, _ in moves], *[b for _, b, _ in moves]}
     states.update([s for s, _ in graph.near])
     init = [f"(at {state_name(graph.start_number)})"]
-    ordered = sorted(edges)
+    ordered = sorted(moves)
     init += [f"(succ s{a} s{b} {p})" for a, b, p in ordered]  # state_name() inlined
     init += [f"(near {state_name(s)} g{g})" for s, g in sorted(graph.near)]
-    costs = [f"(= (move-cost s{a} s{b} {p}) {edges[(a, b, p)]})" for a, b, p in ordered]
+    costs = [f"(= (move-cost s{a} s{b} {p}) {moves[(a, b, p)]})" for a, b, p in ordered]
     goals = [f"g{index}" for index, *_ in graph.goals]
     i, j, k = graph.start
     lines = [
@@ -136,7 +140,7 @@ def lattice_problem(legs: LatticeTask | Sequence[LatticeTask] | LatticeGraph, sh
     ]
     objects = {
         "lstate": [state_name(s) for s in sorted(states)],
-        "primitive": sorted({p for _, _, p in edges}) or ["none"],
+        "primitive": sorted({p for _, _, p in moves}) or ["none"],
         "goalpoint": goals,
     }
     goal = [f"(visited {g})" for g in goals]

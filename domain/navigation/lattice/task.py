@@ -170,13 +170,13 @@ class LatticeTask(Task):  # type: ignore[misc]
                 kept.append((numbers[keep], bits[keep], costs[keep], near[keep]))
             self._pending = kept
         if len(self._edges) > limit:
-            kept = {
+            edges = {
                 number: out
                 for n, (number, out) in enumerate(self._edges.items())
                 if n < limit or number in plan_states
             }
-            self._edges = kept
-            self._near &= set(kept)
+            self._edges = edges
+            self._near &= set(edges)
 
     def _fill(self) -> None:
         pending, self._pending = self._pending, []
@@ -203,7 +203,7 @@ class LatticeTask(Task):  # type: ignore[misc]
             return True
         i, j = divmod(number % (self.grid.nx * self.grid.ny), self.grid.ny)
         wi, wj = self.window
-        return wi.start <= i < wi.stop and wj.start <= j < wj.stop
+        return bool(wi.start <= i < wi.stop and wj.start <= j < wj.stop)
 
     # -- states -------------------------------------------------------------------------------
     def fact(self, number: int) -> Fact:

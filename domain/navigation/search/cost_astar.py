@@ -75,9 +75,7 @@ def cost_astar_search(
         if best is not None and restable(node):
             best.offer(h, node)
         for op, succ_state in successors:
-            child = searchspace.SearchNode(
-                succ_state, node, op, node.g + getattr(op, "cost", 1.0)
-            )
+            child = searchspace.SearchNode(succ_state, node, op, node.g + getattr(op, "cost", 1.0))
             if succ_state in closed:
                 continue  # no reopening
             h_child = heuristic(child)

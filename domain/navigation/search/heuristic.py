@@ -261,12 +261,12 @@ class CostHeuristic(Heuristic):  # type: ignore[misc]
     centroid stays from the goal with the head on it), plus ``turn_cost`` times the turn to the
     nearest of ``headings`` (a repair's targets; none for a leg); 0 once the goal is visited.
 
-    With ``align`` (a leg's), what turning the body onto the way costs at least: the map's way
-    (its steepest descent) against the heading the head or the tail leads along, the turn's
-    length and, where the cell's risk holds (never-observed space near the robot), what
-    sweeping the turn's cells blind risks. Without it a search from a body facing away from
-    its goal meets every turn's risk in g only, after expanding every state it could reach
-    more cheaply.
+    With ``align`` (a leg's), the cheapest of leading with the head, a side or the tail along
+    the map's way (its steepest descent): the turn onto it (its length and, where the cell's
+    risk holds, what sweeping the turn's cells blind risks) plus, for a side or the tail, the
+    reverse penalty over the rest of the way (the motions' ``tail_lead``). Without it a search
+    from a body facing away from its goal meets every turn's and every reversed metre's cost
+    in g only, after expanding every state it could reach more cheaply.
 
     ``values`` (and ``way``, ``risk``) cover ``window`` (the whole grid for a leg), flat in row
     order."""
@@ -279,7 +279,7 @@ class CostHeuristic(Heuristic):  # type: ignore[misc]
         reach: float,
         headings: Sequence[int] = (),
         turn_cost: float = 0.0,
-        align: tuple[Array, Array, float, float, float] | None = None,
+        align: tuple[Array, Array, float, float, float, float] | None = None,
     ) -> None:
         self.task, self.reach = task, reach
         self.values = np.ascontiguousarray(values, dtype=np.float64).ravel()
@@ -301,13 +301,13 @@ class CostHeuristic(Heuristic):  # type: ignore[misc]
         )
         if align is None:
             self.way, self.risk = np.zeros(0), np.zeros(0)
-            turn_length = cells_per_rad = contact = 0.0
+            turn_length = cells_per_rad = contact = reverse = 0.0
         else:
-            way, risk, turn_length, cells_per_rad, contact = align
+            way, risk, turn_length, cells_per_rad, contact, reverse = align
             self.way = np.ascontiguousarray(way, dtype=np.float64).ravel()
             self.risk = np.ascontiguousarray(risk, dtype=np.float64).ravel()
         self.hf = np.array(
-            [grid.settings.step, reach, turn_cost, turn_length, cells_per_rad, contact]
+            [grid.settings.step, reach, turn_cost, turn_length, cells_per_rad, contact, reverse]
         )
 
     def __call__(self, node: Any) -> float:
@@ -352,8 +352,8 @@ def state_heuristic(  # pragma: no cover - compiled
 ) -> float:
     """A (not visited) state's heuristic value. ``dims``: nx, ny, K, the window's i0, j0, i1,
     j1; ``hf``: turn step, reach, turn cost (to ``headings``), and for the alignment term
-    (``way`` given) the turn's metres per radian, its blind cells per radian and the contact
-    cost; ``values``, ``way``, ``risk``: over the window, flat."""
+    (``way`` given) the turn's metres per radian, its blind cells per radian, the contact
+    cost and the reverse penalty; ``values``, ``way``, ``risk``: over the window, flat."""
     nx, ny = dims[0], dims[1]
     rest, j = number // ny, number % ny
     k, i = rest // nx, rest % nx
@@ -375,12 +375,24 @@ def state_heuristic(  # pragma: no cover - compiled
         h += hf[2] * dk
     if way.shape[0] > 0 and h > 0.0:
         psi = k * hf[0]
-        # e(ψ) points to the tail: the head leads along ψ + π, the tail along ψ
+        # e(ψ) points to the tail: the head leads along ψ + π, the tail along ψ, a side along
+        # ψ ± π/2
         head = abs(_remainder(psi + math.pi - way[cell], 2 * math.pi))
+        side = abs(_remainder(psi + 0.5 * math.pi - way[cell], math.pi))
         tail = abs(_remainder(psi - way[cell], 2 * math.pi))
-        turn = min(head, tail)
-        h += hf[3] * turn + hf[5] * (1.0 - math.exp(hf[4] * turn * risk[cell]))
+        lead = _turn_cost(head, hf, risk[cell])
+        rest = max(0.0, d - hf[1])
+        lead = min(lead, _turn_cost(side, hf, risk[cell]) + 0.5 * hf[6] * rest)
+        lead = min(lead, _turn_cost(tail, hf, risk[cell]) + hf[6] * rest)
+        h += lead
     return float(h)
+
+
+@jit
+def _turn_cost(turn: float, hf: Array, risk: float) -> float:  # pragma: no cover - compiled
+    """What turning ``turn`` radians in place costs at least: its length and the contacts its
+    blind sweep risks (``hf``: see ``state_heuristic``)."""
+    return float(hf[3] * turn + hf[5] * (1.0 - math.exp(hf[4] * turn * risk)))
 
 
 @jit

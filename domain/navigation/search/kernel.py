@@ -26,7 +26,7 @@ from domain.navigation.lattice.costs import lethal_part, risk_part, state_costs
 from domain.navigation.lattice.store import MAX_LOAD, Store, put, slot
 from domain.navigation.lattice.task import CostOperator, LatticeTask, state_name
 from domain.navigation.search.heuristic import CostHeuristic, state_heuristic
-from domain.pyperplan_adapter import SearchStopped, stop_if_due
+from domain.pyperplan_adapter import stop_if_due
 from sim.robot import Array
 
 CHUNK = 256  # expansions between checks of the deadline and the cancel flag
@@ -115,7 +115,9 @@ class _Nodes:
             cost = float(self.g[node] - self.g[parent])
             if m < 0:
                 name = f"(visit {state_name(a)} g{task.goal_index})"
-                out.append(CostOperator.of(name, here, frozenset([task.goal_fact]), frozenset(), cost))
+                out.append(
+                    CostOperator.of(name, here, frozenset([task.goal_fact]), frozenset(), cost)
+                )
             else:
                 b = int(self.state[node])
                 name = f"(move {state_name(a)} {state_name(b)} {names[m]})"
@@ -153,7 +155,7 @@ def search(task: LatticeTask, heuristic: CostHeuristic, weight: float, budget: i
                 inputs.values, inputs.geo, inputs.risk, inputs.blocked, inputs.quiet,
                 kt.open_need, inputs.params, kt.checks, kt.check_needs, kt.check_fails,
                 kt.check_points, kt.grouped, kt.check_segments, kt.deltas, kt.cell_reach,
-                kt.lengths, kt.cells, kt.cell_segments, task.motion_targets,
+                kt.lengths, kt.lead_lengths, kt.cells, kt.cell_segments, task.motion_targets,
                 heuristic.dims, heuristic.hf, heuristic.values, heuristic.headings,
                 heuristic.way, heuristic.risk,
                 lethal.index.keys, lethal.index.values, lethal.index.size, lethal.ints,
@@ -247,7 +249,7 @@ def _run(  # pragma: no cover - compiled
     risk: Array, blocked: Array, quiet: Array, open_need: float, params: Array,
     checks: Array, check_needs: Array, check_fails: Array, check_points: Array,
     grouped: Array, check_segments: Array, deltas: Array, cell_reach: Array,
-    lengths: Array, cells: Array, cell_segments: Array, targets: Array,
+    lengths: Array, lead_lengths: Array, cells: Array, cell_segments: Array, targets: Array,
     h_dims: NDArray[np.int64], h_f: Array, h_values: Array, headings: NDArray[np.int64],
     h_way: Array, h_risk: Array,
     lk: Array, lv: Array, ls: Array, lethal_bits: Array, lethal_base: Array, lethal_used: Array,
@@ -316,7 +318,7 @@ def _run(  # pragma: no cover - compiled
             else:
                 bits = lethal_part(
                     state, nx, ny, values, geo, open_need, checks, check_needs, check_fails,
-                    check_points, grouped, check_segments, deltas, cell_reach, lengths,
+                    check_points, grouped, check_segments, deltas, cell_reach, lengths, lead_lengths,
                     params, base,
                 )  # fmt: skip
                 row = lethal_used[0]
@@ -331,9 +333,7 @@ def _run(  # pragma: no cover - compiled
                 for m in range(n_motions):
                     extra[m] = risk_extra[row, m]
             else:
-                risk_part(
-                    state, nx, ny, risk, blocked, quiet, cells, cell_segments, params, extra
-                )
+                risk_part(state, nx, ny, risk, blocked, quiet, cells, cell_segments, params, extra)
                 row = risk_used[0]
                 for m in range(n_motions):
                     risk_extra[row, m] = extra[m]

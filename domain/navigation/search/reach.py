@@ -50,7 +50,7 @@ def lattice_reaches(task: LatticeTask, heuristic: CostHeuristic, states: int) ->
             CHUNK, states, task.start_number, start_bits, near, dims, inputs.values,
             inputs.geo, kt.open_need, inputs.params, kt.checks, kt.check_needs,
             kt.check_fails, kt.check_points, kt.grouped, kt.check_segments, kt.deltas,
-            kt.cell_reach, kt.lengths, task.motion_targets, heuristic.dims, heuristic.hf,
+            kt.cell_reach, kt.lengths, kt.lead_lengths, task.motion_targets, heuristic.dims, heuristic.hf,
             heuristic.values, heuristic.headings, heuristic.way, heuristic.risk, seen,
             heap_h, heap_s, count,
         )  # fmt: skip
@@ -102,7 +102,7 @@ def _walk(  # pragma: no cover - compiled
     dims: NDArray[np.int64], values: Array, geo: Array, open_need: float, params: Array,
     checks: Array, check_needs: Array, check_fails: Array, check_points: Array,
     grouped: Array, check_segments: Array, deltas: Array, cell_reach: Array, lengths: Array,
-    targets: Array, h_dims: NDArray[np.int64], h_f: Array, h_values: Array,
+    lead_lengths: Array, targets: Array, h_dims: NDArray[np.int64], h_f: Array, h_values: Array,
     headings: NDArray[np.int64], h_way: Array, h_risk: Array, seen: NDArray[np.bool_],
     heap_h: Array, heap_s: NDArray[np.int64], count: NDArray[np.int64],
 ) -> int:  # fmt: skip
@@ -134,7 +134,7 @@ def _walk(  # pragma: no cover - compiled
         else:
             bits = lethal_part(
                 state, nx, ny, values, geo, open_need, checks, check_needs, check_fails,
-                check_points, grouped, check_segments, deltas, cell_reach, lengths, params,
+                check_points, grouped, check_segments, deltas, cell_reach, lengths, lead_lengths, params,
                 base,
             )  # fmt: skip
         k, cell = state // plane, state % plane

@@ -15,6 +15,7 @@ the occupancy probabilities' exp): numpy's SIMD versions may round differently f
 from __future__ import annotations
 
 import math
+
 import numpy as np
 from numpy.typing import NDArray
 

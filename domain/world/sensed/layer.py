@@ -31,11 +31,11 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from domain.world.grid import Flat, Grid, unique_cells, unique_counts, unique_inverse
+from domain.world.observation import RangeObservation, range_observations
 from domain.world.sensed import clearing as kernel
 from domain.world.sensed import marking as occupancy_marking
 from domain.world.sensed.beams import arc_cells, likelihoods, swept_cells
-from domain.world.grid import Flat, Grid, unique_cells, unique_counts, unique_inverse
-from domain.world.observation import RangeObservation, range_observations
 from sim.robot import Array
 
 if TYPE_CHECKING:
@@ -63,9 +63,7 @@ class SensedLayer:
     the same layer, value for value.
     """
 
-    def __init__(
-        self, grid: Grid, settings: CostmapSettings, compiled: bool | None = None
-    ) -> None:
+    def __init__(self, grid: Grid, settings: CostmapSettings, compiled: bool | None = None) -> None:
         self.grid = grid
         self.settings = settings
         self.log_odds = np.zeros(grid.shape)
