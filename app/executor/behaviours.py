@@ -124,6 +124,9 @@ class ShapeGuard(MissionBehaviour):
         if not (finite(a) and finite(b) and finite(c)) or SHAPES[ctx.shape].periodic:
             self.feedback_message = f"{ctx.shape} (joints not read)"
             return Status.SUCCESS  # no reading (dropout), or the gait moves the joints on purpose
+        if ctx.reshaping:
+            self.feedback_message = f"{ctx.shape}: changing shape as commanded"
+            return Status.SUCCESS
         ca, cb, cc = ctx.joints
         if max(abs(a - ca), abs(b - cb), abs(c - cc)) <= ctx.settings.follow.shape_tolerance:
             self.feedback_message = f"{ctx.shape} as commanded"
@@ -236,6 +239,14 @@ class Execute(MissionBehaviour):
             self.feedback_message = f"stopped: {outcome.kind}, plan again"
             return Status.RUNNING
         ctx.command = outcome.control
+        joints = getattr(outcome.control, "joints", None)
+        if outcome.shape is not None and not ctx.deformed and joints is not None:
+            # The strategy runs a primitive of this shape: the body takes (or keeps) it, and
+            # the shape guard compares the joint sensors with that, not with the last shape.
+            if outcome.shape != ctx.shape:
+                ctx.event("shape_change", shape=outcome.shape, previous=ctx.shape)
+                ctx.shape = outcome.shape
+            ctx.joints = (float(joints[0, 0]), float(joints[0, 1]), float(joints[0, 2]))
         ctx.current_action = outcome.action
         ctx.grounding = outcome.grounding
         self.feedback_message = ctx.current_action

@@ -63,6 +63,7 @@ class MissionContext:
     shape: str = "straight"  # the library shape the body is classified as
     joints: tuple[float, float, float] = (0.0, 0.0, 0.0)  # commanded joint angles
     deformed: bool = False  # the joint sensors once disagreed with the command for good
+    reshaping: bool = False  # a commanded shape change runs: the joints travel on purpose
     trigger: Trigger | None = None
     replans: list[ReplanRecord] = field(default_factory=list)
     plan_version: int = 0

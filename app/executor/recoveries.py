@@ -306,10 +306,15 @@ class Reshape(Recovery):
         joints = np.asarray(SHAPES[self.target].joints, dtype=float)
         duration = navigation.reshape_duration(ctx.joints, joints, TICK)
         change = Grounded(np.zeros(4), joints, duration, "library", (), np.zeros(3))
+        ctx.reshaping = True  # the shape guard leaves the travelling joints alone
         return [_Step(change, duration, f"into {self.target}")]
+
+    def terminate(self, new_status: Status) -> None:
+        self.ctx.reshaping = False  # done, or interrupted: the guard compares again
 
     def done(self) -> None:
         ctx = self.ctx
+        ctx.reshaping = False
         previous = ctx.shape
         ctx.shape = self.target
         a, b, c = (float(v) for v in SHAPES[self.target].joints)

@@ -107,15 +107,6 @@ def test_a_body_that_cannot_enter_a_pocket_in_its_shape_reshapes_and_reaches_the
     assert [(r.trigger, r.status) for r in result.replans][:1] == [("recovered", "solved")]
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="Reshape (app/executor/recoveries.py) commands the target joints from its first "
-    "tick but sets ctx.shape and ctx.joints only in done(); meanwhile ShapeGuard "
-    "(app/executor/behaviours.py) compares the sensed joints with ctx.joints, takes the "
-    "commanded change for an environment deformation: a 'deform' event, ctx.deformed = True "
-    "(no reshape is offered again in this mission), a ShapeChanged trigger, and done() then "
-    "records the shape_change as from 'straight' to 'straight'",
-)
 def test_a_commanded_shape_change_is_not_reported_as_a_deformation() -> None:
     runner, result = pocket_mission()
     assert result.status == "succeeded"
