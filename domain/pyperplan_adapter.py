@@ -171,21 +171,59 @@ def intern(task: Task, name: str | None = None) -> IndexedTask:
     return IndexedTask(name or task.name, facts, conv(task.initial_state), conv(task.goals), ops)
 
 
-def parse_and_ground(
-    domain_pddl: str, problem_pddl: str, remove_irrelevant: bool = True
-) -> IndexedTask:
-    """Parse PDDL text in process (no temporary files) and ground it with pyperplan
-    (``remove_irrelevant=False`` keeps effects that cannot lead to the goal, as a direct
-    grounding does)."""
+def parse(domain_pddl: str, problem_pddl: str) -> Any:
+    """Parse PDDL text in process (no temporary files) with pyperplan's parser: its problem."""
     parser = Parser(None)
     parser.domInput = domain_pddl
     parser.probInput = problem_pddl
     try:
         domain = parser.parse_domain(read_from_file=False)
-        problem = parser.parse_problem(domain, read_from_file=False)
+        return parser.parse_problem(domain, read_from_file=False)
     except Exception as exc:  # pyperplan raises bare exceptions and SystemExit-free errors
         raise PlanningError(f"PDDL does not parse: {exc}") from exc
+
+
+def parse_and_ground(
+    domain_pddl: str, problem_pddl: str, remove_irrelevant: bool = True
+) -> IndexedTask:
+    """Parse PDDL text and ground it with pyperplan (``remove_irrelevant=False`` keeps effects
+    that cannot lead to the goal, as a direct grounding does)."""
+    problem = parse(domain_pddl, problem_pddl)
     return intern(grounding.ground(problem, remove_irrelevant_operators=remove_irrelevant))
+
+
+def validate_plan_text(
+    domain_pddl: str, problem_pddl: str, plan: Sequence[str]
+) -> tuple[bool, str]:
+    """Check a plan (``(move s1 s2 p)`` steps) on parsed PDDL as a plan validator does: each
+    step's action schema instantiated with its arguments, its preconditions true in the state,
+    its effects applied; the goal true at the end. Unlike ``validate_plan`` nothing is grounded
+    beyond the plan's own steps, so it stays fast on problems too large for pyperplan's
+    grounding (which enumerates every assignment of objects to a schema's parameters)."""
+    problem = parse(domain_pddl, problem_pddl)
+    actions = problem.domain.actions
+
+    def atom(predicate: Any, binding: dict[str, str]) -> tuple[str, ...]:
+        return (predicate.name, *(binding.get(name, name) for name, _ in predicate.signature))
+
+    state = {atom(p, {}) for p in problem.initial_state}
+    for step, text in enumerate(plan):
+        name, *args = text.strip("() ").lower().split()
+        action = actions.get(name)
+        if action is None or len(args) != len(action.signature):
+            return False, f"step {step}: {text} is not an action of the domain with its arity"
+        binding = {param: arg for (param, _), arg in zip(action.signature, args, strict=True)}
+        missing = [p for p in action.precondition if atom(p, binding) not in state]
+        if missing:
+            return (
+                False,
+                f"step {step}: {text} is not applicable ({' '.join(atom(missing[0], binding))} is false)",
+            )
+        state -= {atom(p, binding) for p in action.effect.dellist}
+        state |= {atom(p, binding) for p in action.effect.addlist}
+    if any(atom(p, {}) not in state for p in problem.goal):
+        return False, "the plan ends without reaching the goal"
+    return True, "valid"
 
 
 @dataclass

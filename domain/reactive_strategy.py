@@ -4,7 +4,7 @@ operator grounded by Table 2 primitives as in Figs. 9b and 10 (§6.1, §6.1.1).
 The state is {ongoal, obstacle(togoal), obstacle(togoal ± 90°)}, read from the range sensors
 (below ``threshold``) and the world model (would the body, moved a little that way, come near
 something known?). Angles follow the paper's labels, which read clockwise in our frame
-(kinematics.md §9): PO2's "angletoGoal + 90°" is the world direction to the goal minus 90°,
+(docs/robot-model.md, "Frames and the paper's angle labels"): PO2's "angletoGoal + 90°" is the world direction to the goal minus 90°,
 the side P2 moves to.
 
 Grounding, from library data only (primitives/paper_moves.py), evaluated every control tick

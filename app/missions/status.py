@@ -34,7 +34,7 @@ ACTIVE = frozenset(
     }
 )
 
-# Where each status may go next (DESIGN §6). A running mission moves freely among the active
+# Where each status may go next (docs/mission-format.md lists the lifecycle). A running mission moves freely among the active
 # statuses; ``queued`` only starts (``planning``), is cancelled or fails (reconciliation); once
 # ``cancelling`` only a terminal status may follow (``succeeded``: it finished first), and nothing follows a terminal one. The
 # store refuses anything else: a worker's message still in flight after a cancel (``executing``,

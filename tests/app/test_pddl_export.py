@@ -9,7 +9,7 @@ import re
 from app.executor.runner import run_mission
 from app.missions.spec import MissionSpec
 from domain.navigation import lattice_domain_text
-from domain.pyperplan_adapter import parse_and_ground, validate_plan
+from domain.pyperplan_adapter import validate_plan_text
 from primitives.library import load_bundled
 
 
@@ -49,5 +49,11 @@ def test_every_stored_plan_of_a_tour_validates_on_its_stored_problem() -> None:
         assert "(:metric minimize (total-cost))" in version["problem"]
         domain = without_costs(version["domain"])
         assert domain == lattice_domain_text(costs=False)
-        task = parse_and_ground(domain, without_costs(version["problem"]))
-        assert validate_plan(task, version["plan"]) == (True, "valid")
+        problem = without_costs(version["problem"])
+        assert validate_plan_text(domain, problem, version["plan"]) == (True, "valid")
+    # and the check can fail: a plan cut short, or a step from a state the robot is not in
+    plan = versions[0]["plan"]
+    ok, why = validate_plan_text(domain, problem, plan[:-1])
+    assert not ok and why == "the plan ends without reaching the goal"
+    ok, why = validate_plan_text(domain, problem, plan[1:])
+    assert not ok and why.startswith("step 0:") and "not applicable" in why

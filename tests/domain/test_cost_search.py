@@ -37,8 +37,7 @@ def leg(kind: str, side: float, seed: int, shape: str, k: int, near: bool) -> tu
     h = side / 2
     p = Planner(bounds, SETTINGS)
     start = (*p.grid.cell(-h + 1.0, -h + 1.0), k)
-    c = table.centroid(p.pose_of(table, start))
-    inputs = p.inputs(world, table, (float(c[0]), float(c[1])) if near else None)
+    inputs = p.inputs(world, table)
     cache = p.cache(table, world, inputs)
     goal = legs([(h - 0.8, h - 0.8)])[0]
     task = p.task(table, inputs, cache, start, goal, True, math.inf, None)
@@ -185,8 +184,7 @@ def test_what_the_motion_cache_keeps_is_what_a_fresh_evaluation_gives(seed: int)
     fresh = Planner(bounds, SETTINGS).plan(PlanRequest(pose, STRAIGHT, goals, True, world))
     assert isinstance(again, Plan) and isinstance(fresh, Plan)
     assert again.pddl_plan == fresh.pddl_plan and again.expansions == fresh.expansions
-    c = STRAIGHT.centroid(np.asarray(pose))
-    inputs = p.inputs(world, STRAIGHT, (float(c[0]), float(c[1])))
+    inputs = p.inputs(world, STRAIGHT)
     cache = p.cache(STRAIGHT, world, inputs)
     kt, _ = p.tables(STRAIGHT)
     lethal, risky = cache.lethal, cache.risk

@@ -47,13 +47,12 @@ TURNS = [m for m, motion in enumerate(STRAIGHT.motions) if abs(float(motion.end[
 
 
 def costs(
-    world: WorldModel, pose=POSE, near: bool = True, margin: float | None = None
+    world: WorldModel, pose=POSE, margin: float | None = None
 ) -> tuple[int, np.ndarray, Planner]:
     """The valid motions (bitmask) and costs of the state at ``pose``, with the risk of the
-    never-observed space round the robot there (``near``) as a replan reads it."""
+    never-observed space as a replan reads it."""
     p = Planner(BOUNDS, SETTINGS)
-    c = STRAIGHT.centroid(np.asarray(pose, dtype=float))
-    inputs = p.inputs(world, STRAIGHT, (float(c[0]), float(c[1])) if near else None)
+    inputs = p.inputs(world, STRAIGHT)
     kt = kernel_table(STRAIGHT, SETTINGS.margin if margin is None else margin)
     bits, out = state_costs(p.grid.encode(p.key_of(STRAIGHT, pose)), inputs, kt)
     return bits, out, p
@@ -69,14 +68,15 @@ def test_on_a_free_lattice_head_first_is_cheapest_then_tail_first_then_sideways(
     assert bits == (1 << len(STRAIGHT.motions)) - 1  # in open space every motion is valid
     assert np.all(c >= STRAIGHT.lengths - 1e-12)  # never less than the metres travelled
     # The head's rays look first where the head leads: that motion sweeps nothing blind.
-    assert c[HEAD_FIRST] == pytest.approx(STRAIGHT.lengths[HEAD_FIRST])
+    assert c[HEAD_FIRST] == pytest.approx(STRAIGHT.lengths[HEAD_FIRST], rel=1e-4)
     assert c[HEAD_FIRST] < c[TAIL_FIRST] < min(c[m] for m in SIDEWAYS)
     assert all(c[m] > STRAIGHT.lengths[m] for m in TURNS)  # a turn swings the tail round blind
 
 
 def test_observed_space_costs_its_metres_only() -> None:
     """Once beams have crossed the space round the robot (reading nothing) and the body has lain
-    there, no motion risks anything: each costs its length (open space: no closeness cost)."""
+    there, no motion risks anything: each costs its length (open space: no closeness cost), and
+    the length the tail leads costs ``reverse_penalty`` more."""
     world = WorldModel(BOUNDS, (), SETTINGS.costmap)
     _, blind, _ = costs(world)
     for x in np.arange(-1.5, 1.6, 0.25):
@@ -87,34 +87,38 @@ def test_observed_space_costs_its_metres_only() -> None:
             )
     world.observe_body(POSE, STRAIGHT_JOINTS)
     _, seen, _ = costs(world)
-    np.testing.assert_allclose(seen, STRAIGHT.lengths)
+    reverse = SETTINGS.costs.reverse_penalty  # a move the tail leads pays for it, seen or not
+    np.testing.assert_allclose(seen, STRAIGHT.lengths * (1.0 + reverse * STRAIGHT.leads))
+    assert seen[TAIL_FIRST] == pytest.approx(
+        (1.0 + reverse) * STRAIGHT.lengths[TAIL_FIRST], rel=1e-4
+    )
     assert np.all(blind >= seen) and np.sum(blind > seen + 0.1) > len(STRAIGHT.motions) // 2
 
 
 def test_closeness_to_a_known_obstacle_costs_more_and_an_obstacle_in_the_way_is_invalid() -> None:
     open_world = WorldModel(BOUNDS, (), SETTINGS.costmap)
-    _, free, _ = costs(open_world, near=False)
+    _, free, _ = costs(open_world)
     # A post on the head's axis: the head-first move ends with its head 0.03 m beyond the
     # margin from it, the tail-first move, going away, keeps about the inflation radius.
     near_post = WorldModel(BOUNDS, [Circle(-0.455, 0.0, 0.05)], SETTINGS.costmap)
-    bits, close, _ = costs(near_post, near=False)
+    bits, close, _ = costs(near_post)
     assert valid(bits, HEAD_FIRST) and close[HEAD_FIRST] > free[HEAD_FIRST]
     assert close[HEAD_FIRST] > 1.4 * free[HEAD_FIRST]
     assert close[TAIL_FIRST] - free[TAIL_FIRST] < 0.05 * (close[HEAD_FIRST] - free[HEAD_FIRST])
     blocked = WorldModel(BOUNDS, [Circle(-0.25, 0.0, 0.08)], SETTINGS.costmap)
-    bits, c, _ = costs(blocked, near=False)
+    bits, c, _ = costs(blocked)
     assert not valid(bits, HEAD_FIRST) and math.isinf(c[HEAD_FIRST])
     assert valid(bits, TAIL_FIRST) and math.isfinite(c[TAIL_FIRST])
 
 
 def test_contact_evidence_raises_the_cost_and_never_invalidates_a_motion() -> None:
     world = WorldModel(BOUNDS, (), SETTINGS.costmap)
-    bits0, before, _ = costs(world, near=False)
+    bits0, before, _ = costs(world)
     # A bumper on the tail unit's left side (towards -y) fired, again and again.
     for t in range(12):
         world.add_contact(POSE, STRAIGHT_JOINTS, 4, "left", float(t))
     assert world.evidence().max() > 0.5
-    bits, after, _ = costs(world, near=False)
+    bits, after, _ = costs(world)
     assert bits == bits0  # the same motions valid: soft evidence is never lethal
     assert np.all(np.isfinite(after))
     assert np.all(after >= before - 1e-12)
@@ -131,8 +135,7 @@ def test_the_start_may_rest_closer_than_the_margin_but_not_move_in_deeper() -> N
     motion towards it is valid; the planner's start table lets it move away."""
     world = WorldModel(BOUNDS, [Circle(-0.055 - 0.01 - 0.1, 0.0, 0.1)], SETTINGS.costmap)
     p = Planner(BOUNDS, SETTINGS)
-    c = STRAIGHT.centroid(np.asarray(POSE))
-    inputs = p.inputs(world, STRAIGHT, (float(c[0]), float(c[1])))
+    inputs = p.inputs(world, STRAIGHT)
     start = p.key_of(STRAIGHT, POSE)
     at_margin, _ = state_costs(p.grid.encode(start), inputs, kernel_table(STRAIGHT, 0.02))
     out_of_start, c_start = state_costs(
@@ -153,7 +156,7 @@ def random_inputs(seed: int, settings: NavigationSettings = SETTINGS) -> tuple[C
         x, y = (float(v) for v in rng.uniform(-2.0, 2.0, 2))
         world.add_contact((x, y, float(rng.uniform(-3, 3))), STRAIGHT_JOINTS, 2, "right", 0.0)
     p = Planner(bounds, settings)
-    inputs = p.inputs(world, STRAIGHT, (0.0, 0.0))
+    inputs = p.inputs(world, STRAIGHT)
     return inputs, p
 
 
@@ -178,7 +181,8 @@ def test_the_compiled_cost_evaluation_equals_its_python_form(seed: int) -> None:
             bits = fn(
                 number, inputs.nx, inputs.ny, inputs.values, inputs.geo, kt.open_need,
                 kt.checks, kt.check_needs, kt.check_fails, kt.check_points, kt.grouped,
-                kt.check_segments, kt.deltas, kt.cell_reach, kt.lengths, inputs.params, base,
+                kt.check_segments, kt.deltas, kt.cell_reach, kt.lengths, kt.lead_lengths, inputs.params,
+                base,
             )  # fmt: skip
             outs.append((int(bits), base))
         assert outs[0][0] == outs[1][0]

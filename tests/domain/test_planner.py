@@ -72,6 +72,31 @@ def test_a_goal_the_centroid_could_reach_but_the_body_cannot_is_unreachable() ->
     assert out.expansions > 0  # the search found it: the reachable lattice ran out
 
 
+@pytest.mark.parametrize("budget", [1, 40, 400])
+def test_a_spent_budget_still_proves_a_goal_no_motion_sequence_reaches(budget: int) -> None:
+    """The pen's door lets the centroid through, not the body: however small the search's
+    budget, the lethal layer's checks (the relaxed body, then the walk over valid motions
+    without costs) prove it, and say which body cannot."""
+    settings = dataclasses.replace(SETTINGS, search=SearchSettings(expansions=budget))
+    out = failure(
+        bounds=ARENA, obstacles=pen(-0.2), pose=(0.0, 0.0, 0.0), goals=[(-1.0, 0.0)],
+        settings=settings,
+    )  # fmt: skip
+    assert (out.kind, out.proof, out.goal) == ("unreachable", "known", 0)
+    assert out.reason.startswith("unreachable:") and "straight" in out.reason
+
+
+@pytest.mark.parametrize("budget", [1, 40])
+def test_a_spent_budget_in_the_open_is_never_unreachable(budget: int) -> None:
+    """The same small budgets where a way exists: a partial plan or a timeout, never a proof."""
+    settings = dataclasses.replace(SETTINGS, search=SearchSettings(expansions=budget))
+    _, _, out = plan(
+        Bounds(-3, 3, -3, 3), [Circle(0.0, 0.0, 0.5)], (2.0, 0.0, 0.0), [(-2.0, 0.0)],
+        settings=settings,
+    )  # fmt: skip
+    assert isinstance(out, Plan) or out.kind == "timeout", out
+
+
 def test_a_start_against_a_wall_with_no_way_out_is_start_blocked() -> None:
     """The same pen, its south wall 1 mm into the resting body: no plan leads out, and no
     proof about the goal is claimed (the recoveries back off first)."""
@@ -147,8 +172,7 @@ def deepest_out_of_the_start(wall) -> tuple[float, dict[str, float]]:
     p = Planner(ARENA, SETTINGS)
     pose = (0.0, 0.0, 0.0)
     start = p.key_of(STRAIGHT, pose)
-    c = STRAIGHT.centroid(np.asarray(pose))
-    inputs = p.inputs(world, STRAIGHT, (float(c[0]), float(c[1])))
+    inputs = p.inputs(world, STRAIGHT)
     bits, _ = state_costs(p.grid.encode(start), inputs, p.start_table(STRAIGHT, start, inputs))
     i, j, k = start
     centre, seg = p.grid.centre(i, j), STRAIGHT.segments[k]

@@ -73,7 +73,7 @@ def tail_lead(motion: Motion) -> float:
     for a turn in place (its swinging ends pay for what they sweep blind instead)."""
     dx, dy = float(motion.end[0]), float(motion.end[1])
     length = math.hypot(dx, dy)
-    if length < 1e-9 or abs(float(motion.end[2])) > 1e-9:
+    if length < 1e-9 or motion.turn != 0.0:
         return 0.0
     return 0.5 * (1.0 + dx / length)  # e(ψ), the body frame's x axis, points to the tail
 
@@ -86,6 +86,7 @@ class Motion:
     end: Array  # tracked-point end pose (dx, dy, dψ) in the start frame, as recorded
     swept: Array  # tracked-point poses along the motion, start frame, [S, 3] (the start first)
     duration: float  # model seconds
+    turn: float = 0.0  # the heading change it was learned for (rad; 0: a translation)
 
     @classmethod
     def of(cls, entry: Primitive) -> Motion:
@@ -95,6 +96,7 @@ class Motion:
             np.asarray(entry.end_pose, dtype=float),
             np.asarray(entry.swept or [(0.0, 0.0, 0.0), entry.end_pose], dtype=float),
             float(entry.rollout.duration),
+            float(entry.turn),
         )
 
 
