@@ -3,7 +3,7 @@ invalid, oversized, slow and planning-heavy missions, cancels, SIGKILLed mission
 websocket churn. Prints requests by status, missions by terminal status and reason, stuck
 missions (must be 0), 5xx answers (must be 0) and the server's RSS at start and end.
 
-Then three scenarios of issue 29 (``--scenarios``, all by default):
+Then three adversarial scenarios (``--scenarios``, all by default):
 - ``race``: the live-update race, 50 concurrent mixed updates (goals added and removed,
   obstacles, pause, resume) on a running mission with a cancel among them, several rounds:
   every answer 2xx/4xx, each accepted goal at the index its answer gave, the caps held, after
@@ -262,7 +262,7 @@ def drain(base: str) -> list[dict]:
         return missions
 
 
-# -- issue 29's scenarios --------------------------------------------------------------------------
+# -- the adversarial scenarios --------------------------------------------------------------------------
 RACE_ROUNDS = 5
 RACE_UPDATES = 50
 RACE_MISSION = {  # paced: it runs until cancelled (within the soak's 30 s wall-clock limit)
@@ -543,7 +543,9 @@ def main() -> None:
     parser.add_argument("--minutes", type=float, default=10.0)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument(
-        "--scenarios", default="race,stall,memory", help="issue 29's scenarios to run after it"
+        "--scenarios",
+        default="race,stall,memory",
+        help="comma-separated: race, stall, memory (run after the soak)",
     )
     parser.add_argument("--worker-memory", default="1G", help="the memory scenario's cap")
     args = parser.parse_args()

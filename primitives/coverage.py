@@ -1,4 +1,4 @@
-"""What "a shape the library covers" means, defined once (issue 11): a body shape (three joint
+"""What "a shape the library covers" means, defined once: a body shape (three joint
 angles) is covered when it is a library shape within a stated joint tolerance, or when it can
 be interpolated between library shapes as the paper's Figs. 8 and 13b do.
 

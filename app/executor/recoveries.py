@@ -304,7 +304,9 @@ class Reshape(Recovery):
         self.target = options[0]
         ctx.shapes_tried.add(ctx.shape)
         joints = np.asarray(SHAPES[self.target].joints, dtype=float)
-        duration = navigation.reshape_duration(ctx.joints, joints, TICK)
+        duration = navigation.reshape_duration(
+            ctx.joints, joints, TICK, ctx.settings.recovery.reshape_rate
+        )
         change = Grounded(np.zeros(4), joints, duration, "library", (), np.zeros(3))
         ctx.reshaping = True  # the shape guard leaves the travelling joints alone
         return [_Step(change, duration, f"into {self.target}")]

@@ -2,7 +2,7 @@
 
 A POST's store work (the insert, the commit, the queueing) runs in a thread, off the event loop.
 One thread hop and one transaction per POST made a burst of posts a queue of hops, each a wait
-for a thread and the GIL behind the others (issue 15: 20 posts at once took ~100 ms for the
+for a thread and the GIL behind the others (20 posts at once took ~100 ms for the
 last). Here the posts that arrive while a batch is being written wait together for the next
 one: a burst costs a few hops and transactions, a lone post the same one hop as before. The
 store stays the source of truth: a mission is queued only once its row is committed, and an

@@ -22,7 +22,7 @@ from domain.navigation.feasibility import Feasibility
 from domain.navigation.lattice.grid import LatticeGrid, compose
 from domain.navigation.lattice.motions import HeadView, capsule_samples, motion_table
 from domain.navigation.repair import leg_reach
-from domain.navigation.settings import NavigationSettings
+from domain.navigation.settings import NavigationSettings, RecoverySettings
 from domain.world import WorldModel
 from primitives.library import Library, Primitive
 from primitives.shapes import SHAPES
@@ -31,7 +31,6 @@ from sim.world import footprint
 
 AWAY = {"front": 0, "rear": 180, "left": 90, "right": 270}  # body angle away from a side
 RESHAPE_SAMPLES = 8  # intermediate bodies checked along a shape change
-JOINT_RATE = 0.5  # rad per model second the joints turn during a commanded shape change
 
 
 def sweep_keeps_clear(
@@ -160,11 +159,16 @@ def spin(
     return None
 
 
-def reshape_duration(joints_from: ArrayLike, joints_to: ArrayLike, tick: float) -> float:
-    """Model seconds a shape change takes: the largest joint travel at ``JOINT_RATE``, in
-    whole control ticks."""
+def reshape_duration(
+    joints_from: ArrayLike,
+    joints_to: ArrayLike,
+    tick: float,
+    rate: float = RecoverySettings.reshape_rate,
+) -> float:
+    """Model seconds a shape change takes: the largest joint travel at ``rate`` (rad per model
+    second, ``RecoverySettings.reshape_rate``), in whole control ticks."""
     travel = float(np.max(np.abs(np.subtract(joints_to, joints_from))))
-    return max(1, math.ceil(travel / JOINT_RATE / tick)) * tick
+    return max(1, math.ceil(travel / rate / tick)) * tick
 
 
 def reshape_options(

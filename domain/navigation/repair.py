@@ -36,10 +36,6 @@ from domain.pyperplan_adapter import SearchStopped
 if TYPE_CHECKING:
     from domain.navigation.planner import Planner
 
-REJOIN_AFTER = 2  # moves past the last blocked one where a detour may join the plan ...
-REJOIN_SPAN = 10  # ... or at any of this many states after that (the search picks the best)
-LEAVE_BEFORE = 3  # moves before the first blocked one where it leaves the plan
-ON_PLAN = 4  # the robot counts as on the plan if its state is one of the next this many
 WINDOW_BLOCK = 16  # cells: window sides are multiples of this (few sizes of window)
 
 
@@ -113,9 +109,12 @@ class Repairer:
             return None
         planner, grid = self.planner, self.planner.grid
         table = request.table
+        policy = planner.settings.search
         steps = plan_steps(previous.actions)
         here = grid.encode(start)
-        on = next((n for n, s in enumerate(steps[:ON_PLAN]) if s.state == here), None)
+        on = next(
+            (n for n, s in enumerate(steps[: policy.repair_on_plan]) if s.state == here), None
+        )
         steps = steps[on:] if on is not None else steps
         if not _visits_goals(steps, request.goals, request.ordered):
             return None  # the goals changed: a full plan orders them again
@@ -135,10 +134,10 @@ class Repairer:
         # The detour replaces steps[leave:rest]: from a state before the first blocked move
         # (or from the robot's own state, off the plan) to one of the states a little after
         # the last blocked move (``rest`` is the step the kept part starts with).
-        leave = moves[max(0, int(bad[0]) - LEAVE_BEFORE)] if on is not None else 0
-        join = (int(bad[-1]) if bad.size else -1) + 1 + REJOIN_AFTER
-        ends = [moves[q] for q in range(join, min(len(moves), join + REJOIN_SPAN))]
-        if join + REJOIN_SPAN > len(moves):
+        leave = moves[max(0, int(bad[0]) - policy.repair_leave_before)] if on is not None else 0
+        join = (int(bad[-1]) if bad.size else -1) + 1 + policy.repair_rejoin_after
+        ends = [moves[q] for q in range(join, min(len(moves), join + policy.repair_rejoin_span))]
+        if join + policy.repair_rejoin_span > len(moves):
             ends.append(moves[-1] + 1)  # the plan's last state (its final visits kept)
         if any(s.motion is None for s in steps[leave : ends[-1]]):
             return None  # a goal visit inside the part replaced: a full plan decides

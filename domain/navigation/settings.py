@@ -85,6 +85,17 @@ class SearchSettings:
     repairs_in_a_row: int = 4
     """local repairs in a row before the whole way is planned again (a repair keeps the far
     part of a plan made on older knowledge)"""
+    repair_leave_before: int = 3
+    """moves before the first blocked one where a repair's detour leaves the plan"""
+    repair_rejoin_after: int = 2
+    """moves past the last blocked one where a detour may join the plan again ..."""
+    repair_rejoin_span: int = 10
+    """... or at any of this many states after that (the search picks the best)"""
+    repair_on_plan: int = 4
+    """the robot counts as on the plan (repairable) if its state is one of the next this many"""
+    start_free: float = 0.15
+    """metres round the start centroid the heuristic's map always lets through (the body may
+    rest closer to something than its margin: it must still be able to leave)"""
     reach_states: int = 1_000_000
     """states the lattice's own connectivity check (``search.reach``) may walk when the budget
     ran out, before "no plan within the budget" is all that can be said"""
@@ -122,6 +133,8 @@ class RecoverySettings:
     """metres round the robot where stale evidence is cleared (sensing refills what is real)"""
     wait_ticks: int = 4
     """control ticks the robot holds still after clearing, so the sensors read again"""
+    reshape_rate: float = 0.5
+    """rad per model second the joints are given to turn in a commanded shape change"""
 
     def __post_init__(self) -> None:
         _check_finite(self, "recovery settings")

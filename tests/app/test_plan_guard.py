@@ -62,8 +62,10 @@ def test_the_first_blocked_move_is_reported(pick: int) -> None:
     # now: the cells it lies over are known free).
     x, y, psi = moves[pick].target
     ex, ey = x + 0.95 * math.cos(psi), y + 0.95 * math.sin(psi)
-    for _ in range(3):
+    for _ in range(20):  # echoes until sensed (more where beams had crossed it free)
         ctx.world.integrate([RangeObservation((ex, ey + 0.5), -math.pi / 2, 0.0, 1.0, 0.5, True)])
+        if ctx.world.sensed_occupied().any():
+            break
     assert ctx.world.sensed_occupied().any()
     want = first_blocked_one_by_one(strategy, ctx.world)
     got = strategy.broken(ctx.situation())

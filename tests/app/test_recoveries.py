@@ -19,6 +19,7 @@ from app.executor.recoveries import RecoveryNode, RoundRobin
 from app.executor.runner import MissionRunner
 from app.executor.tree import build_tree
 from app.missions.spec import MissionSpec, load_mission
+from bench.worlds import layout
 from domain.navigation import RecoverySettings
 from primitives.library import load_bundled
 
@@ -59,7 +60,9 @@ def test_the_printed_tree_shows_the_recovery_node_and_every_recovery() -> None:
 
 
 def test_a_mission_that_touches_something_backs_off_and_still_reaches_its_goal() -> None:
-    spec = load_mission(HARD / "tail-first-hidden-post.json")
+    """A field of hidden posts (a tuning seed of the generated worlds) where the blind tail
+    touches a post as the body first turns towards the goal."""
+    spec = MissionSpec.model_validate(layout("posts", 3))
     snapshots: list[dict[str, Any]] = []
     runner = MissionRunner(spec, LIB, on_tick=lambda ctx, snap: snapshots.append(snap))
     result = runner.run()

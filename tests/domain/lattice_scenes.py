@@ -25,7 +25,7 @@ from domain.navigation import (
     compose,
     motion_table,
 )
-from domain.world import WorldModel
+from domain.world import RangeObservation, WorldModel
 from primitives.library import load_bundled
 from sim.obstacles import Circle, Obstacle, rectangle
 from sim.robot import Array
@@ -52,10 +52,14 @@ def plan(
     ordered: bool = True,
     table: MotionTable = STRAIGHT,
     settings: NavigationSettings = SETTINGS,
+    observed: bool = False,
     **planner: Any,
 ) -> tuple[Planner, WorldModel, Plan | Failure]:
-    """A planner, the world model it planned on (the obstacles known) and its answer."""
+    """A planner, the world model it planned on (the obstacles known; the arena looked round
+    when ``observed``) and its answer."""
     world = WorldModel(bounds, obstacles, settings.costmap)
+    if observed:
+        looked_round(world)
     p = Planner(bounds, settings, **planner)
     return p, world, p.plan(PlanRequest(pose, table, legs(goals), ordered, world))
 
@@ -144,3 +148,34 @@ def move_slack(
         out.append(float(np.min(slack)))
         here = np.asarray(action.target)
     return out
+
+
+def looked_round(world: WorldModel) -> WorldModel:
+    """The world model of a robot that has looked round the whole arena (free beams crossing
+    it everywhere): what a repair meets in a mission, where the robot senses what it passes.
+    In space never observed every detour pays the risk of the unknown and searches wider."""
+    b = world.bounds
+    for x in np.arange(b.xmin + 0.2, b.xmax, 0.4):
+        for y in np.arange(b.ymin + 0.2, b.ymax, 0.4):
+            world.integrate(
+                RangeObservation((float(x), float(y)), float(a), 0.0, 0.5, 0.5, False)
+                for a in np.linspace(-math.pi, math.pi, 120, endpoint=False)
+            )
+    return world
+
+
+def sense_post(world: WorldModel, x: float, y: float) -> None:
+    """Consistent echoes of a ray from 0.5 m east of (x, y) until its cell is sensed (lethal):
+    three where nothing was seen, more where beams had crossed it free."""
+    version = world.version
+    for _ in range(20):
+        world.integrate([RangeObservation((x + 0.5, y), math.pi, 0.0, 1.0, 0.5, True)])
+        if world.version > version and world.sensed_occupied().any():
+            return
+    raise AssertionError("the post was not sensed")
+
+
+def ahead(moves: list, pose, distance: float = 1.0) -> tuple[float, float]:
+    """Where the plan's first move to end ``distance`` metres or more from ``pose`` ends."""
+    x, y, _ = next(a.target for a in moves if math.dist(a.target[:2], pose[:2]) >= distance)
+    return x, y

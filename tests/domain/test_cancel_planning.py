@@ -6,7 +6,6 @@ the cancel up in the cycle collector."""
 from __future__ import annotations
 
 import gc
-import math
 import threading
 from collections.abc import Iterator
 
@@ -17,10 +16,19 @@ from domain.navigation import Failure, NavigationStrategy, Plan, Planner, PlanRe
 from domain.navigation.lattice.states import FREEZE_AFTER, no_cycle_collection
 from domain.strategy import Situation
 from domain.triggers import Initial, PathBlocked
-from domain.world import RangeObservation, WorldModel
+from domain.world import WorldModel
 from sim.obstacles import Circle
 from sim.world import Bounds
-from tests.domain.lattice_scenes import LIB, SETTINGS, STRAIGHT, legs, scene
+from tests.domain.lattice_scenes import (
+    LIB,
+    SETTINGS,
+    STRAIGHT,
+    ahead,
+    legs,
+    looked_round,
+    scene,
+    sense_post,
+)
 
 BOUNDS = Bounds(-3.0, 3.0, -3.0, 3.0)
 
@@ -88,16 +96,14 @@ def test_a_cancel_arriving_mid_search_ends_it(search: str) -> None:
 
 def test_a_cancel_stops_a_local_repair_too() -> None:
     """Something sensed on the plan being run: the repair searches a detour, and stops."""
-    world = WorldModel(BOUNDS, [Circle(0.0, 0.8, 0.3)], SETTINGS.costmap)
+    world = looked_round(WorldModel(BOUNDS, [Circle(0.0, 0.8, 0.3)], SETTINGS.costmap))
     p = Planner(BOUNDS, SETTINGS)
     goals = legs([(-2.2, 2.0)])
     first = p.plan(PlanRequest((2.2, -2.0, 3.1), STRAIGHT, goals, True, world))
     assert isinstance(first, Plan)
-    x, y, _ = [a for a in first.actions if a.name == "move"][8].target
-    for _ in range(3):
-        world.integrate([RangeObservation((x + 0.5, y), math.pi, 0.0, 1.0, 0.5, True)])
-    previous = Plan(first.actions[1:], shape="straight")
     here = first.actions[0].target
+    sense_post(world, *ahead([a for a in first.actions[1:] if a.name == "move"], here))
+    previous = Plan(first.actions[1:], shape="straight")
     repaired = p.plan(PlanRequest(here, STRAIGHT, goals, True, world, previous))
     assert isinstance(repaired, Plan) and repaired.repaired and repaired.expansions > 0
     flag = threading.Event()

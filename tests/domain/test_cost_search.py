@@ -22,7 +22,16 @@ from domain.navigation.search.heuristic import cells_within, state_heuristic, we
 from domain.pyperplan_adapter import SearchStopped
 from domain.world import CostmapSettings, RangeObservation, WorldModel
 from sim.world import Bounds
-from tests.domain.lattice_scenes import ARC, SETTINGS, STRAIGHT, legs, scene
+from tests.domain.lattice_scenes import (
+    ARC,
+    SETTINGS,
+    STRAIGHT,
+    ahead,
+    legs,
+    looked_round,
+    scene,
+    sense_post,
+)
 
 compiled_only = pytest.mark.skipif(not searches.AVAILABLE, reason="numba kernels are off")
 
@@ -121,11 +130,12 @@ def test_a_search_stopped_by_its_budget_reports_as_many_expansions_either_way() 
 
 
 def first_and_repaired(compiled: bool, monkeypatch: pytest.MonkeyPatch) -> tuple[Any, ...]:
-    """A plan across a seeded cluttered scene; then, two moves on, a post sensed six moves
-    ahead on it, and the replan with the rest of the plan (a local repair)."""
+    """A plan across a seeded cluttered scene the robot has looked round; then, two moves on, a
+    post sensed a metre ahead on it, and the replan with the rest of the plan (a local
+    repair)."""
     monkeypatch.setattr(searches, "AVAILABLE", compiled)
     bounds, obstacles = scene("cluttered", 5.0, 13)
-    world = WorldModel(bounds, obstacles, SETTINGS.costmap)
+    world = looked_round(WorldModel(bounds, obstacles, SETTINGS.costmap))
     p = Planner(bounds, SETTINGS)
     goals = legs([(1.7, 1.7)])
     first = p.plan(PlanRequest((-1.6, -1.6, 0.8), STRAIGHT, goals, True, world))
@@ -133,10 +143,7 @@ def first_and_repaired(compiled: bool, monkeypatch: pytest.MonkeyPatch) -> tuple
     moves = [a for a in first.actions if a.name == "move"]
     pose = moves[1].target
     rest = first.actions[first.actions.index(moves[1]) + 1 :]
-    x, y, _ = [a for a in rest if a.name == "move"][6].target
-    for _ in range(3):  # three consistent single-ray echoes: a sensed cell
-        world.integrate([RangeObservation((x - 0.5, y), 0.0, 0.0, 1.0, 0.5, True)])
-    assert world.sensed_occupied().any()
+    sense_post(world, *ahead([a for a in rest if a.name == "move"], pose))
     again = p.plan(PlanRequest(pose, STRAIGHT, goals, True, world, Plan(rest, shape="straight")))
     assert isinstance(again, Plan)
     return tuple(

@@ -16,6 +16,7 @@ import pytest
 from domain.goal_order import LegGoal
 from domain.navigation import (
     SEARCH_NAMES,
+    Failure,
     NavigationSettings,
     Plan,
     Planner,
@@ -120,7 +121,8 @@ def test_the_heuristic_does_not_leak_through_a_thin_wall_beside_the_goal() -> No
 def test_pyperplans_searches_run_on_the_same_lattice(search: str) -> None:
     """pyperplan's unit-cost searches take the planner's lattice task and obstacle heuristic:
     each finds a plan, valid and clear as the cost search's, and none costs less than the cost
-    search's by more than its weight allows."""
+    search's by more than its weight allows. Enforced hill climbing is incomplete: where it
+    stops in a dead end the planner says timeout, never unreachable."""
     bounds = Bounds(-1.0, 1.0, -1.0, 1.0)
     obstacles = [Circle(0.1, 0.0, 0.15)]
     pose, goal = (-0.55, 0.6, 0.0), (0.5, -0.55)
@@ -131,6 +133,9 @@ def test_pyperplans_searches_run_on_the_same_lattice(search: str) -> None:
             bounds, obstacles, pose, [goal], table=COARSE_STRAIGHT, settings=COARSE,
             search=name, time_limit=60.0,
         )  # fmt: skip
+        if name == "ehs" and isinstance(out, Failure):
+            assert out.kind == "timeout" and out.proof is None, out
+            return
         result = solved(out)
         assert not result.partial and result.actions[-1].name == "visit"
         slack = move_slack(p, COARSE_STRAIGHT, result, bounds, obstacles)

@@ -22,6 +22,7 @@ from domain.pyperplan_adapter import HEURISTICS, SEARCHES, SearchStopped
 
 COST_SEARCH = "cost"
 SEARCH_NAMES = (COST_SEARCH, *SEARCHES)
+COMPLETE = {COST_SEARCH, "gbf", "astar", "wastar", "bfs"}  # no plan found: none exists
 
 __all__ = ["COST_SEARCH", "SEARCH_NAMES", "CostHeuristic", "Found", "run"]
 
@@ -99,5 +100,7 @@ def _pyperplan_search(
         if stop.status != "timeout" or _timed_out(task):
             raise
         return Found("budget", None, float("inf"), [], task.expansions)
-    status = "solved" if plan is not None else "exhausted"
+    # Enforced hill climbing gives up in a dead end a complete search would leave: its
+    # failure proves nothing, and the planner's own checks decide (as when a budget ran out).
+    status = "solved" if plan is not None else "exhausted" if search in COMPLETE else "budget"
     return Found(status, plan, float("inf"), [], task.expansions)

@@ -32,8 +32,6 @@ from domain.navigation.settings import CostSettings
 from domain.world.grid import cells_round
 from sim.robot import DEFAULT_GEOMETRY, Array
 
-START_FREE = 0.15  # metres around the start centroid that the map always lets through
-
 
 def closeness(slack: Array, costs: CostSettings) -> Array:
     """Nav2's inflation decay of a slack (m beyond the need and the margin): 1 at 0, falling by
@@ -91,7 +89,7 @@ def cost_map(
         weights = np.where(at_centres >= roomy, weights, weights * narrow_weight)
     ok |= in_reach(grid, at_centres, goal, free)
     if start is not None:  # the robot is there: it may be touching what it just bumped into
-        ok[cells_within(grid, start, START_FREE)] = True
+        ok[cells_within(grid, start, grid.settings.search.start_free)] = True
     gi, gj = grid.cell(*goal)
     return weighted_geodesic(
         ok.reshape(grid.nx, grid.ny), weights.reshape(grid.nx, grid.ny), [(gi, gj)], r
