@@ -52,7 +52,7 @@ def test_every_stored_plan_of_a_tour_validates_on_its_stored_problem() -> None:
         problem = without_costs(version["problem"])
         assert validate_plan_text(domain, problem, version["plan"]) == (True, "valid")
     # and the check can fail: a plan cut short, or a step from a state the robot is not in
-    plan = versions[0]["plan"]
+    plan, problem = versions[0]["plan"], without_costs(versions[0]["problem"])
     ok, why = validate_plan_text(domain, problem, plan[:-1])
     assert not ok and why == "the plan ends without reaching the goal"
     ok, why = validate_plan_text(domain, problem, plan[1:])
