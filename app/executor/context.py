@@ -87,6 +87,7 @@ class MissionContext:
     recoveries: int = 0  # recoveries run
     spin_direction: int = 1  # the last spin's direction (the next turns the other way)
     shapes_tried: set[str] = field(default_factory=set)  # reshaped from since the last plan
+    cleared_for: set[tuple[int, ...]] = field(default_factory=set)  # goals left when cleared
     interval: float = 0.25  # model seconds per control tick
     chain_started: float = 0.0
     chain_entry_pose: tuple[float, float, float] | None = None

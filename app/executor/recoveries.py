@@ -327,7 +327,8 @@ class Reshape(Recovery):
 class ClearStaleEvidence(Recovery):
     """When sensed obstacles or contact evidence may be what closes the way: forget them round
     the robot (``clear_radius``), then hold still for ``wait_ticks`` while the sensors read
-    again (what is real comes back)."""
+    again (what is real comes back). Once per set of goals left: what sensing finds again
+    after a clear is real, and clearing it again would only lead the robot back into it."""
 
     what = "clear"
 
@@ -338,9 +339,13 @@ class ClearStaleEvidence(Recovery):
 
     def plan(self) -> list[_Step] | None:
         ctx = self.ctx
+        left = tuple(ctx.remaining_goals())
+        if left in ctx.cleared_for:
+            return None  # cleared once for these goals already
         x, y, _ = ctx.pose
         if not ctx.world.clear_evidence((x, y), ctx.settings.recovery.clear_radius):
             return None  # nothing there to clear
+        ctx.cleared_for.add(left)
         joints = np.asarray(ctx.joints, dtype=float)
         hold = Grounded(np.zeros(4), joints, 0.0, "library", (), np.zeros(3))
         ticks = ctx.settings.recovery.wait_ticks
