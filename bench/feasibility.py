@@ -16,9 +16,10 @@ so the test adds that error (and the axis sampling's) to the margin when it must
 (``sure=True``: "reachable" then holds with the margin to spare) and subtracts it when it must
 not miss a way (``sure=False``). ``verdict`` asks both: feasible for sure at ``MARGIN``,
 infeasible even optimistically at margin 0, and borderline in between. One grid step moves a
-body point at most ~6 cm, over which a clearance of 1 cm at both ends cannot close on a convex
-obstacle of the generated worlds (radius ≥ 5 cm), so the fill's joins are continuous motions in
-practice, not a proof.
+body point at most ~6 cm; a unit that keeps 1 cm from a point at both ends of such a move
+passes it with 0.45 cm to spare (√(0.085² − 0.03²) − 0.075), and from a flat face it cannot
+dip at all, so at ``MARGIN`` the fill's joins are collision-free motions in practice (checked
+along one path found through a bent slot), not a proof.
 """
 
 from __future__ import annotations

@@ -86,6 +86,7 @@ class Job:
     cap: float
     family: str | None = None
     seed: int = 0
+    known: bool = False  # a generated world with every obstacle known
     path: str | None = None
 
 
@@ -212,7 +213,7 @@ def _depth(world: World, starts: Array, ends: Array, radii: Array) -> float:
 
 def _mission(job: Job) -> tuple[dict[str, Any], str]:
     if job.family is not None:
-        world = generate(job.family, job.seed)
+        world = generate(job.family, job.seed, job.known)
         return world.mission, world.verdict.label
     assert job.path is not None
     return json.loads(Path(job.path).read_text()), ""
@@ -381,7 +382,9 @@ def jobs_for(args: argparse.Namespace) -> list[Job]:
     jobs = []
     for noise in args.noise:
         for family in families:
-            jobs += [Job(family, noise, args.cap, family=family, seed=s) for s in seeds]
+            jobs += [
+                Job(family, noise, args.cap, family=family, seed=s, known=args.known) for s in seeds
+            ]
         for name, folder in folders:
             jobs += [Job(name, noise, args.cap, path=str(p)) for p in sorted(folder.glob("*.json"))]
     return jobs
@@ -406,6 +409,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument(
         "--seeds", help="the worlds' seeds: 1000-1199 (report), 0-99 (tuning), 1,5,7-9"
+    )
+    parser.add_argument(
+        "--known", action="store_true", help="generated worlds with every obstacle known"
     )
     parser.add_argument("--examples", action="store_true", help="the 112 example missions too")
     parser.add_argument(

@@ -123,14 +123,11 @@ def _rect(x: float, y: float, w: float, h: float, angle: float = 0.0) -> dict[st
     return {"type": "rectangle", "x": x, "y": y, "width": w, "height": h, "angle": angle}
 
 
-def _bar(a: Array, b: Array, thickness: float = WALL, extend: float = 0.0) -> dict[str, Any]:
-    """A rectangle along the segment a-b (``extend`` metres longer at each end)."""
+def _bar(a: Array, b: Array) -> dict[str, Any]:
+    """A wall (a rectangle ``WALL`` thick) along the segment a-b."""
     d = b - a
-    length = float(np.hypot(*d))
     mid = (a + b) / 2
-    return _rect(
-        float(mid[0]), float(mid[1]), length + 2 * extend, thickness, math.atan2(d[1], d[0])
-    )
+    return _rect(float(mid[0]), float(mid[1]), float(np.hypot(*d)), WALL, math.atan2(d[1], d[0]))
 
 
 def _start_pose(
@@ -504,12 +501,11 @@ def _rooms(rng: np.random.Generator) -> Mission:
                 float(rng.uniform(0, math.pi)),
             )
             ob = obstacle_from_dict(piece)
-            spot = np.array([[piece["x"], piece["y"]]])
+            goal = np.array([[gx, gy]])
             if (
                 all(math.hypot(piece["x"] - dx, piece["y"] - dy) > 1.2 for dx, dy in doors)
                 and _body_clearance((sx, sy, psi), ob) > 0.3
-                and float(ob.segment_clearance(np.array([[gx, gy]]), np.array([[gx, gy]]))[0]) > 0.5
-                and float(spot[0, 0]) - x0 > 0
+                and float(ob.segment_clearance(goal, goal)[0]) > 0.5
             ):
                 furniture.append(piece)
     return {
