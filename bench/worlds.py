@@ -25,7 +25,8 @@ obstacle hidden unless ``known``, the start heading drawn at random, facing away
 
 ``generate`` also asks ``bench.feasibility`` (a flood fill of the straight body with every
 obstacle known, independent of the planner) whether the world can be done at all: a feasible
-world expects ``succeeded``; an infeasible one ``failed`` with ``unreachable`` (it is kept: a
+world expects ``succeeded`` (one the body can do only by changing shape on the way carries
+``-reshape`` in its name); an infeasible one ``failed`` with ``unreachable`` (it is kept: a
 sound planner must say so); a borderline one (feasible only at margin 0) expects the same
 failure and carries ``-borderline`` in its name so the scoreboard lists it apart.
 """
@@ -85,6 +86,7 @@ def generate(family: str, seed: int, known: bool = False) -> World:
         mission["expect"] = {"status": "succeeded"}
     else:
         mission["expect"] = {"status": "failed", "reason": "unreachable"}
+    if checked.label != "feasible":  # reshape, borderline, infeasible: seen in any listing
         mission["name"] += f"-{checked.label}"
     return World(family, seed, mission, checked)
 
