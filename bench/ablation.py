@@ -31,11 +31,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from domain.navigation_strategy import NavigationStrategy, Running
 
 from app.executor.context import MissionContext
 from app.executor.runner import MissionRunner
 from app.missions.spec import MissionSpec, load_mission
+from domain.navigation import NavigationStrategy
+from domain.navigation.strategy import Running
 from primitives.lattice import sweep
 from primitives.library import Library, Primitive, load_bundled
 from primitives.params import ParameterSpace

@@ -3,43 +3,50 @@ beside Fast Downward lama-first on the same exported PDDL.
 
 Arenas of 5 m, 10 m and 20 m square with random known clutter (seeded). The robot starts in
 one corner and plans to the far corner; then, ten times, it advances a few steps along its plan
-and an obstacle is sensed on the path ahead (a disc of contact marks in the world model), and
-it replans as a mission does: the rest of its plan repaired around the change where a local
-detour will do (domain/lattice_repair.py), planned whole otherwise ("repaired" counts the
-first). A second table blocks one cell on the path 1 m ahead in arenas of 5-40 m and prints
-the replan time, repaired and from scratch, with its log-log slope against the number of
-lattice states (target: < 0.5). Target: replan p95 <= 20 ms on 10 m x 10 m at the
-resolution that passes 0.30 m corridors (0.05 m cells, 64 orientations); bench/README.md
-holds the targets. ``--load`` keeps the other core busy (a spinning child process) for the
-under-load figure. The one-off costs of a process (the
-motion table, the compiled kernels loading) are timed apart before the figures.
+and a post is sensed on the path ahead (three consistent echoes of a range reading: a lethal
+cell of the world model's sensed layer), and it replans as a mission does: the rest of its plan
+repaired around the change where a local detour will do (``domain/navigation/repair.py``),
+planned whole otherwise ("repaired" counts the first). A second table senses one cell on the
+path 1 m ahead in arenas of 5-40 m and prints the replan time, repaired and from scratch, with
+its log-log slope against the number of lattice states (target: < 0.5). Target: replan p95 <=
+20 ms on 10 m x 10 m at the resolution that passes 0.30 m corridors (0.05 m cells, 64
+orientations); bench/README.md holds the targets. ``--load`` keeps the other core busy (a
+spinning child process) for the under-load figure. The one-off costs of a process (the motion
+table, the compiled kernels loading) are timed apart before the figures.
 
-The first plan's problem, as the mission stores it (domain/lattice_pddl.py), is then given to
-Fast Downward (``up-fast-downward``): its driver run directly (the whole process: Python driver,
-translate and search, and the search alone as its log reports it) and through
-unified-planning's ``OneshotPlanner`` (read + solve). The export holds only the part of the
-lattice our search generated, so Fast Downward searches a smaller problem than we do.
+The first plan's problem, as the mission stores it (``domain/navigation/lattice/pddl.py``, with
+its action costs), is then given to Fast Downward (``up-fast-downward``): its driver run
+directly (the whole process: Python driver, translate and search, and the search alone as its
+log reports it) and through unified-planning's ``OneshotPlanner`` (read + solve). The export
+holds only the part of the lattice our search generated, so Fast Downward searches a smaller
+problem than we do.
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import subprocess
 import sys
 import time
 from typing import Any
 
 import numpy as np
-from domain.grid_clearance import world_clearance
-from domain.lattice import LatticeSettings, motion_table
-from domain.lattice_pddl import lattice_domain, lattice_problem
-from domain.lattice_planner import LatticePlanner
-from domain.lattice_task import Clearance
-from domain.occupancy import WorldModelSettings
-from domain.worldmodel import WorldModel
 
 from bench.fast_downward import FdRun, run_driver, run_unified_planning
 from domain.goal_order import LegGoal
+from domain.navigation import (
+    COST_SEARCH,
+    Failure,
+    MotionTable,
+    NavigationSettings,
+    Plan,
+    Planner,
+    PlanRequest,
+    lattice_domain_text,
+    motion_table,
+)
+from domain.world import RangeObservation, WorldModel
 from primitives.library import Library, load_bundled
 from sim.obstacles import Circle
 from sim.world import Bounds
@@ -62,29 +69,42 @@ def clutter(side: float, rng: np.random.Generator) -> list[Circle]:
     return out
 
 
-def clearance_of(world: WorldModel, compiled: bool) -> Clearance:
-    """The world's clearance as planners take it: with its compiled form (the compiled lattice
-    search runs) or the plain callable (pyperplan's search runs)."""
-    return world_clearance(world) if compiled else world.clearance_at
+SEARCHES = {"compiled": COST_SEARCH, "pyperplan": "gbf"}  # --search: the planner's search
 
 
-def run(side: float, library: object, seed: int = 0, compiled: bool = True) -> dict[str, Any]:
+def straight_table(library: Library, settings: NavigationSettings) -> MotionTable:
+    table = motion_table(library, "straight", (0.0, 0.0, 0.0), settings)
+    assert table is not None
+    return table
+
+
+def sense_post(world: WorldModel, x: float, y: float) -> None:
+    """Three consistent echoes of a ray from 0.5 m east of (x, y): a sensed (lethal) cell."""
+    for _ in range(3):
+        world.integrate([RangeObservation((x + 0.5, y), math.pi, 0.0, 1.0, 0.5, True)])
+
+
+def solved(out: Plan | Failure) -> Plan:
+    if isinstance(out, Failure):
+        raise RuntimeError(f"no plan: {out.reason}")
+    return out
+
+
+def run(side: float, library: Library, seed: int = 0, search: str = COST_SEARCH) -> dict[str, Any]:
     rng = np.random.default_rng(seed)
     bounds = Bounds(-side / 2, side / 2, -side / 2, side / 2)
-    world = WorldModel(bounds, clutter(side, rng))
-    settings = LatticeSettings()
-    table = motion_table(library, "straight", (0.0, 0.0, 0.0), settings)  # type: ignore[arg-type]
-    assert table is not None
-    planner = LatticePlanner(bounds, settings, time_limit=30.0)
+    settings = NavigationSettings()
+    world = WorldModel(bounds, clutter(side, rng), settings.costmap)
+    table = straight_table(library, settings)
+    planner = Planner(bounds, settings, search=search, time_limit=30.0)
     pose = (-side / 2 + 1.3, -side / 2 + 0.4, np.pi)  # tail towards -x, head first to +x
-    goal = [LegGoal(0, side / 2 - 0.6, side / 2 - 0.6, 0.1)]
+    goal = (LegGoal(0, side / 2 - 0.6, side / 2 - 0.6, 0.1),)
     t0 = time.perf_counter()
-    clearance = clearance_of(world, compiled)
-    plan = planner.plan(table, clearance, world.version, pose, goal, True)
+    plan = solved(planner.plan(PlanRequest(pose, table, goal, True, world)))
     first = (time.perf_counter() - t0) * 1e3
-    problem = lattice_problem(plan.legs, "straight") if plan.legs else None
+    problem = plan.problem()
     export = {
-        "solved": plan.solved and not plan.partial,
+        "solved": not plan.partial,
         "length": len(plan.actions),
         "problem": problem.text() if problem is not None else "",
         "states": len(problem.objects["lstate"]) if problem is not None else 0,
@@ -98,11 +118,15 @@ def run(side: float, library: object, seed: int = 0, compiled: bool = True) -> d
             break
         pose = moves[2].target  # the robot advanced; something is sensed a few steps ahead
         ahead = moves[7].target
-        world.add_contact((ahead[0], ahead[1]))
+        sense_post(world, ahead[0], ahead[1])
         remaining = plan.actions[plan.actions.index(moves[2]) + 1 :]
+        previous = Plan(remaining, shape=table.shape)
         t0 = time.perf_counter()
-        plan = planner.plan(table, clearance, world.version, pose, goal, True, previous=remaining)
+        out = planner.plan(PlanRequest(pose, table, goal, True, world, previous))
         replans.append((time.perf_counter() - t0) * 1e3)
+        if isinstance(out, Failure):
+            break
+        plan = out
         repaired += plan.repaired
     return {
         "first": first,
@@ -115,24 +139,24 @@ def run(side: float, library: object, seed: int = 0, compiled: bool = True) -> d
 
 
 def scaling(
-    side: float, library: object, seed: int = 0, trials: int = 5, compiled: bool = True
+    side: float, library: Library, seed: int = 0, trials: int = 5, search: str = COST_SEARCH
 ) -> dict[str, Any]:
-    """Replan time after one cell is blocked on the path 1 m ahead of the robot: the repair
+    """Replan time after one cell is sensed on the path 1 m ahead of the robot: the repair
     (what a mission does) and a full plan from scratch, medians over ``trials`` positions."""
     rng = np.random.default_rng(seed)
     bounds = Bounds(-side / 2, side / 2, -side / 2, side / 2)
-    world = WorldModel(bounds, clutter(side, rng), WorldModelSettings(contact_radius=0.0))
-    settings = LatticeSettings()
-    table = motion_table(library, "straight", (0.0, 0.0, 0.0), settings)  # type: ignore[arg-type]
-    assert table is not None
-    planner = LatticePlanner(bounds, settings, time_limit=60.0)
+    settings = NavigationSettings()
+    world = WorldModel(bounds, clutter(side, rng), settings.costmap)
+    table = straight_table(library, settings)
+    planner = Planner(bounds, settings, search=search, time_limit=60.0)
     pose = (-side / 2 + 1.3, -side / 2 + 0.4, np.pi)
-    goal = [LegGoal(0, side / 2 - 0.6, side / 2 - 0.6, 0.1)]
-    clearance = clearance_of(world, compiled)
-    plan = planner.plan(table, clearance, world.version, pose, goal, True)
+    goal = (LegGoal(0, side / 2 - 0.6, side / 2 - 0.6, 0.1),)
+    plan = solved(planner.plan(PlanRequest(pose, table, goal, True, world)))
     repair, full, repaired = [], [], 0
     for trial in range(trials):
         moves = [a for a in plan.actions if a.name == "move"]
+        if len(moves) <= 2 + 2 * trial:
+            break
         here = moves[2 + 2 * trial].target
         ahead = next(
             (
@@ -144,15 +168,16 @@ def scaling(
         )
         if ahead is None:
             break
-        world.add_contact((ahead[0], ahead[1]))  # a contact radius of 0: one cell
+        sense_post(world, ahead[0], ahead[1])  # one sensed cell
         remaining = plan.actions[plan.actions.index(moves[2 + 2 * trial]) + 1 :]
+        previous = Plan(remaining, shape=table.shape)
         t0 = time.perf_counter()
-        fixed = planner.plan(table, clearance, world.version, here, goal, True, previous=remaining)
+        fixed = planner.plan(PlanRequest(here, table, goal, True, world, previous))
         repair.append((time.perf_counter() - t0) * 1e3)
-        repaired += fixed.repaired
-        fresh = LatticePlanner(bounds, settings, time_limit=60.0)  # nothing kept: a first plan
+        repaired += isinstance(fixed, Plan) and fixed.repaired
+        fresh = Planner(bounds, settings, search=search, time_limit=60.0)  # nothing kept
         t0 = time.perf_counter()
-        fresh.plan(table, clearance, world.version, here, goal, True)
+        fresh.plan(PlanRequest(here, table, goal, True, world))
         full.append((time.perf_counter() - t0) * 1e3)
     return {
         "states": planner.grid.size,
@@ -177,7 +202,7 @@ def scaling_table(args: argparse.Namespace) -> None:
     print(f"{'arena':>7}{'states':>12}{'repair':>9}{'repaired':>10}{'scratch':>9}")
     rows = []
     for side in args.scaling:
-        r = scaling(side, library, args.seed, compiled=args.search == "compiled")
+        r = scaling(side, library, args.seed, search=SEARCHES[args.search])
         rows.append(r)
         print(
             f"{side:>5g} m{r['states']:>12,}{r['repair']:>9.1f}{r['repaired']:>6}/{r['n']:<3}"
@@ -224,8 +249,8 @@ def main(argv: list[str] | None = None) -> None:
         "--search",
         choices=("compiled", "pyperplan"),
         default="compiled",
-        help="the compiled lattice search (domain/lattice_search.py; needs SCREWSNAKE_KERNELS "
-        "on) or pyperplan's gbf (the same plans)",
+        help="the planner's cost search (weighted A*, compiled unless SCREWSNAKE_KERNELS is "
+        "off; domain/navigation/search) or pyperplan's gbf on the same lattice task",
     )
     parser.add_argument(
         "--scaling",
@@ -252,21 +277,15 @@ def warm_up(library: Library) -> tuple[float, float]:
     """The one-off costs of a planning process, timed apart from the figures: building the
     straight shape's motion table (kept per process and shape) and a small plan that loads the
     compiled kernels (numba's on-disk cache). Returns both in ms."""
+    settings = NavigationSettings()
     t0 = time.perf_counter()
-    table = motion_table(library, "straight", (0.0, 0.0, 0.0), LatticeSettings())
+    table = straight_table(library, settings)
     built = (time.perf_counter() - t0) * 1e3
-    assert table is not None
     bounds = Bounds(-1.5, 1.5, -1.5, 1.5)
-    world = WorldModel(bounds, [Circle(0.0, 0.0, 0.2)])
+    world = WorldModel(bounds, [Circle(0.0, 0.0, 0.2)], settings.costmap)
     t0 = time.perf_counter()
-    LatticePlanner(bounds).plan(
-        table,
-        world_clearance(world),
-        world.version,
-        (-0.5, -1.0, np.pi),
-        [LegGoal(0, 1, 1, 0.1)],
-        True,
-    )
+    goal = (LegGoal(0, 1, 1, 0.1),)
+    Planner(bounds, settings).plan(PlanRequest((-0.5, -1.0, np.pi), table, goal, True, world))
     return built, (time.perf_counter() - t0) * 1e3
 
 
@@ -278,8 +297,9 @@ def table(args: argparse.Namespace) -> None:
         f"plan loading the compiled kernels {loaded:.0f} ms"
     )
     print(
-        "lattice: 0.05 m cells, 64 orientations, 22 learned primitives per shape (gbf, lattice h, "
-        f"{args.search} search)" + ("; the other core loaded" if args.load else "")
+        "lattice: 0.05 m cells, 64 orientations, the straight shape's learned primitives "
+        f"({SEARCHES[args.search]} search, obstacle heuristic)"
+        + ("; the other core loaded" if args.load else "")
     )
     print(
         "FD: Fast Downward lama-first on the first plan's exported PDDL; driver = whole process "
@@ -293,9 +313,9 @@ def table(args: argparse.Namespace) -> None:
     )
     notes, partial = [], False
     for side in args.sizes:
-        r = run(side, library, args.seed, compiled=args.search == "compiled")
+        r = run(side, library, args.seed, search=SEARCHES[args.search])
         e = r["export"]
-        domain = lattice_domain().text()
+        domain = lattice_domain_text()
         fd = run_driver(domain, e["problem"], args.fd_limit) if e["problem"] else FdRun("no export")
         up = (
             run_unified_planning(domain, e["problem"], args.up_limit)

@@ -17,8 +17,10 @@ should be 0); model time (median of the successes); planning latency p95 (every 
 replan record's ``latency_ms``); then contacts by body part (head, units 1-4) and by the kind
 of motion running when it touched (read from the executed log: ``lat-straight-t025-a180`` is
 a translation at body angle 180°, head first, since the heading points from head to tail).
-Generated worlds carry the flood fill's verdict (``bench.feasibility``): infeasible ones
-expect ``unreachable``, and borderline ones are listed apart and left out of the figures.
+Generated worlds carry the flood fill's verdict (``bench.feasibility``): feasible ones and
+``reshape`` ones (passable only if the body changes shape on the way, listed apart too) expect
+success, infeasible ones ``unreachable``, and borderline ones are listed apart and left out of
+the figures.
 Simulator truth is read here only, never by the executor. ``--json`` keeps every row and
 figure for comparing runs later.
 """
@@ -86,6 +88,7 @@ class Job:
     cap: float
     family: str | None = None
     seed: int = 0
+    known: bool = False  # a generated world with every obstacle known
     path: str | None = None
 
 
@@ -96,7 +99,7 @@ class Score:
     set: str
     name: str
     noise: str
-    verdict: str = ""  # the flood fill's: feasible, borderline, infeasible ("" for files)
+    verdict: str = ""  # the flood fill's: feasible, reshape, borderline, infeasible ("" for files)
     expected: str = "succeeded"
     status: str = "error"
     reason: str = ""
@@ -138,8 +141,10 @@ def motion_kind(action: str) -> str:
     found = _PRIMITIVE.search(action)
     if found is None:
         return verb  # another domain's action (the reactive one, a chain step)
+    if verb == "spin" or (verb == "back-off" and found["sign"] is not None):
+        return "recovery spin"
     if found["sign"] is not None:
-        return "recovery spin" if verb == "back-off" else "turn in place"
+        return "turn in place"
     if verb == "back-off":
         return "back-off"
     angle = int(found["angle"]) % 360
@@ -156,15 +161,17 @@ def motion_kind(action: str) -> str:
 def touches(
     events: Sequence[dict[str, Any]], executed: Sequence[dict[str, Any]]
 ) -> list[tuple[int, str]]:
-    """Each contact's body part and the kind of motion that was running when it happened (the
-    executed entry whose ticks led up to the contact's model time)."""
+    """Each contact's body part and the kind of motion that was running when it happened: the
+    action the event names, or else the executed entry whose ticks led up to its model time."""
     out = []
     for e in events:
         if e["kind"] != "collision":
             continue
-        running = [x for x in executed if x["from"] < e["t"] - 1e-9]
-        action = str(running[-1]["action"]) if running else ""
-        out.append((int(e.get("part", -1)), motion_kind(action)))
+        action = e.get("action")
+        if action is None:
+            running = [x for x in executed if x["from"] < e["t"] - 1e-9]
+            action = running[-1]["action"] if running else ""
+        out.append((int(e.get("part", -1)), motion_kind(str(action))))
     return out
 
 
@@ -212,7 +219,7 @@ def _depth(world: World, starts: Array, ends: Array, radii: Array) -> float:
 
 def _mission(job: Job) -> tuple[dict[str, Any], str]:
     if job.family is not None:
-        world = generate(job.family, job.seed)
+        world = generate(job.family, job.seed, job.known)
         return world.mission, world.verdict.label
     assert job.path is not None
     return json.loads(Path(job.path).read_text()), ""
@@ -310,8 +317,8 @@ def _groups(rows: Sequence[Score]) -> dict[tuple[str, str], list[Score]]:
 
 def report(rows: Sequence[Score]) -> list[str]:
     """The tables: figures per set and noise level, contacts by part and by motion kind, then
-    the runs worth a look (borderline and infeasible worlds, false unreachable, rescues,
-    disagreements with the flood fill)."""
+    the runs worth a look (reshape, borderline and infeasible worlds, false unreachable,
+    rescues, disagreements with the flood fill)."""
     groups = _groups(rows)
     out = [
         "",
@@ -349,15 +356,16 @@ def report(rows: Sequence[Score]) -> list[str]:
     notes = []
     for r in rows:
         where = f"{r.set}/{r.name} @{r.noise}"
-        if r.verdict in ("borderline", "infeasible"):
+        if r.verdict in ("reshape", "borderline", "infeasible"):
             notes.append(f"  {r.verdict}: {where}: {r.status} {r.reason[:80]}")
         if r.false_unreachable:
             notes.append(f"  false unreachable: {where}: {r.reason[:80]}")
         elif r.rescued:
             notes.append(f"  rescued by the known twin: {where}: {r.status}: {r.reason[:80]}")
-        if r.verdict == "feasible" and r.twin_status and r.twin_status != "succeeded":
+        if r.verdict in ("feasible", "reshape") and r.twin_status not in ("", "succeeded"):
             notes.append(
-                f"  flood fill says feasible, known twin {r.twin_status}: {where}: {r.twin_reason[:80]}"
+                f"  flood fill says {r.verdict}, known twin {r.twin_status}: {where}: "
+                f"{r.twin_reason[:80]}"
             )
         if r.verdict == "infeasible" and r.succeeded:
             notes.append(f"  flood fill says infeasible, but it succeeded: {where}")
@@ -381,7 +389,9 @@ def jobs_for(args: argparse.Namespace) -> list[Job]:
     jobs = []
     for noise in args.noise:
         for family in families:
-            jobs += [Job(family, noise, args.cap, family=family, seed=s) for s in seeds]
+            jobs += [
+                Job(family, noise, args.cap, family=family, seed=s, known=args.known) for s in seeds
+            ]
         for name, folder in folders:
             jobs += [Job(name, noise, args.cap, path=str(p)) for p in sorted(folder.glob("*.json"))]
     return jobs
@@ -406,6 +416,9 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument(
         "--seeds", help="the worlds' seeds: 1000-1199 (report), 0-99 (tuning), 1,5,7-9"
+    )
+    parser.add_argument(
+        "--known", action="store_true", help="generated worlds with every obstacle known"
     )
     parser.add_argument("--examples", action="store_true", help="the 112 example missions too")
     parser.add_argument(

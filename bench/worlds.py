@@ -25,7 +25,8 @@ obstacle hidden unless ``known``, the start heading drawn at random, facing away
 
 ``generate`` also asks ``bench.feasibility`` (a flood fill of the straight body with every
 obstacle known, independent of the planner) whether the world can be done at all: a feasible
-world expects ``succeeded``; an infeasible one ``failed`` with ``unreachable`` (it is kept: a
+world expects ``succeeded`` (one the body can do only by changing shape on the way carries
+``-reshape`` in its name); an infeasible one ``failed`` with ``unreachable`` (it is kept: a
 sound planner must say so); a borderline one (feasible only at margin 0) expects the same
 failure and carries ``-borderline`` in its name so the scoreboard lists it apart.
 """
@@ -85,6 +86,7 @@ def generate(family: str, seed: int, known: bool = False) -> World:
         mission["expect"] = {"status": "succeeded"}
     else:
         mission["expect"] = {"status": "failed", "reason": "unreachable"}
+    if checked.label != "feasible":  # reshape, borderline, infeasible: seen in any listing
         mission["name"] += f"-{checked.label}"
     return World(family, seed, mission, checked)
 
@@ -123,14 +125,11 @@ def _rect(x: float, y: float, w: float, h: float, angle: float = 0.0) -> dict[st
     return {"type": "rectangle", "x": x, "y": y, "width": w, "height": h, "angle": angle}
 
 
-def _bar(a: Array, b: Array, thickness: float = WALL, extend: float = 0.0) -> dict[str, Any]:
-    """A rectangle along the segment a-b (``extend`` metres longer at each end)."""
+def _bar(a: Array, b: Array) -> dict[str, Any]:
+    """A wall (a rectangle ``WALL`` thick) along the segment a-b."""
     d = b - a
-    length = float(np.hypot(*d))
     mid = (a + b) / 2
-    return _rect(
-        float(mid[0]), float(mid[1]), length + 2 * extend, thickness, math.atan2(d[1], d[0])
-    )
+    return _rect(float(mid[0]), float(mid[1]), float(np.hypot(*d)), WALL, math.atan2(d[1], d[0]))
 
 
 def _start_pose(
@@ -504,12 +503,11 @@ def _rooms(rng: np.random.Generator) -> Mission:
                 float(rng.uniform(0, math.pi)),
             )
             ob = obstacle_from_dict(piece)
-            spot = np.array([[piece["x"], piece["y"]]])
+            goal = np.array([[gx, gy]])
             if (
                 all(math.hypot(piece["x"] - dx, piece["y"] - dy) > 1.2 for dx, dy in doors)
                 and _body_clearance((sx, sy, psi), ob) > 0.3
-                and float(ob.segment_clearance(np.array([[gx, gy]]), np.array([[gx, gy]]))[0]) > 0.5
-                and float(spot[0, 0]) - x0 > 0
+                and float(ob.segment_clearance(goal, goal)[0]) > 0.5
             ):
                 furniture.append(piece)
     return {
