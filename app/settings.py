@@ -89,7 +89,13 @@ class Settings(BaseModel):
     max_body: int = Field(1_000_000, ge=1024, le=1_000_000_000)  # request body bytes (else 413)
     # Obstacles one mission may list (422 naming `obstacles` beyond): the mission model reads
     # it through `max_obstacles()` wherever a mission is validated.
-    max_obstacles: int = Field(2000, ge=1, le=100_000)
+    max_obstacles: int = Field(10_000, ge=1, le=100_000)
+    # Pixels one map image may have (422 naming its `image` beyond), read like
+    # `max_obstacles` through `max_map_pixels()` wherever a map is decoded.
+    max_map_pixels: int = Field(4_000_000, ge=1, le=100_000_000)
+    # Body bytes of `POST /maps` (its own limit: a 1000 x 1000 map in base64 is 1.3 MB, past the
+    # missions' `max_body`); larger is 413 before the body is read.
+    max_map_body: int = Field(20_000_000, ge=1024, le=1_000_000_000)
     wall_limit: float = Field(3600.0, gt=0, le=7 * 86400)  # wall-clock seconds per mission
     min_speed: float = Field(0.01, gt=0, le=10_000)  # slowest real-time pacing (0 = unpaced)
     reconcile_seconds: float = Field(30.0, gt=0, le=86400)  # how often lost missions are ended
@@ -180,6 +186,19 @@ def _max_obstacles(raw: str | None) -> int:
         default: int = Settings.model_fields["max_obstacles"].default
         return default
     return Settings.model_validate({"max_obstacles": raw}).max_obstacles
+
+
+def max_map_pixels() -> int:
+    """``SCREWSNAKE_MAX_MAP_PIXELS`` as ``Settings`` validates it, read as ``max_obstacles``."""
+    return _max_map_pixels(os.environ.get("SCREWSNAKE_MAX_MAP_PIXELS"))
+
+
+@cache
+def _max_map_pixels(raw: str | None) -> int:
+    if raw is None:
+        default: int = Settings.model_fields["max_map_pixels"].default
+        return default
+    return Settings.model_validate({"max_map_pixels": raw}).max_map_pixels
 
 
 def missing_extra(settings: Settings) -> str | None:

@@ -313,3 +313,57 @@ def circle_distances(bq: Array, rr: Array, radii: Array) -> Array:  # pragma: no
             t = near if near >= 0 else (0.0 if far >= 0 else np.inf)
             out[r, c] = t if disc >= 0 else np.inf
     return out
+
+
+@_jit
+def raster_gaps(  # pragma: no cover - compiled
+    starts: Array,  # [C, 2] capsule axes, world frame
+    ends: Array,
+    radii: Array,  # [C]
+    reach: float,  # cells further than this (+ the radius) from an axis are not measured
+    occupied: NDArray[np.bool_],  # [nx, ny] the map's occupied cells
+    resolution: float,
+    frame: Array,  # (origin x, origin y, cos yaw, sin yaw)
+    out: Array,  # out [C]: per capsule, min(distance to an occupied square - radius, reach)
+) -> None:
+    """``OccupancyRaster.segment_gap`` in one loop: each capsule's axis in the map's frame
+    against the occupied squares of its window (the axis' box grown by reach + radius). A
+    segment and a square are 0 apart when an end lies in the square or the segment crosses
+    one of its edges; else the nearest pair is an end against an edge or a corner against the
+    segment: ``_segment_edge`` over the four edges covers both."""
+    ox, oy, c, s = frame[0], frame[1], frame[2], frame[3]
+    nx, ny = occupied.shape
+    for k in range(starts.shape[0]):
+        dx, dy = starts[k, 0] - ox, starts[k, 1] - oy
+        ax, ay = c * dx + s * dy, -s * dx + c * dy
+        dx, dy = ends[k, 0] - ox, ends[k, 1] - oy
+        bx, by = c * dx + s * dy, -s * dx + c * dy
+        grow = reach + radii[k]
+        i0 = max(0, int(math.floor((min(ax, bx) - grow) / resolution)))
+        i1 = min(nx, int(math.floor((max(ax, bx) + grow) / resolution)) + 1)
+        j0 = max(0, int(math.floor((min(ay, by) - grow) / resolution)))
+        j1 = min(ny, int(math.floor((max(ay, by) + grow) / resolution)) + 1)
+        best = reach
+        for i in range(i0, i1):
+            x0 = i * resolution
+            x1 = x0 + resolution
+            for j in range(j0, j1):
+                if not occupied[i, j]:
+                    continue
+                y0 = j * resolution
+                y1 = y0 + resolution
+                if (x0 <= ax <= x1 and y0 <= ay <= y1) or (x0 <= bx <= x1 and y0 <= by <= y1):
+                    d = 0.0
+                else:
+                    d = min(
+                        min(
+                            _segment_edge(ax, ay, bx, by, x0, y0, x1, y0),
+                            _segment_edge(ax, ay, bx, by, x1, y0, x1, y1),
+                        ),
+                        min(
+                            _segment_edge(ax, ay, bx, by, x1, y1, x0, y1),
+                            _segment_edge(ax, ay, bx, by, x0, y1, x0, y0),
+                        ),
+                    )
+                best = min(best, d - radii[k])
+        out[k] = best

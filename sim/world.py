@@ -12,11 +12,13 @@ from numpy.typing import NDArray
 
 from sim import collision_kernel
 from sim.obstacles import Obstacle, ray_segment_hits
+from sim.raster import OccupancyRaster
 from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry, head_tip, joint_positions
 from sim.scene import Scene
 
 WALL = -1  # obstacle index reported for the arena bounds
 CANDIDATE_SLACK = 0.25  # m a ray origin may move before its candidate obstacles are found anew
+RASTER_REACH = 0.5  # m round the body a map's cells are measured for contacts and gaps
 _NO_CIRCLES = np.zeros((0, 0))
 
 
@@ -115,22 +117,29 @@ class Contact:
     """The first thing the footprint touches: an obstacle index (or WALL), the body part and
     the side of that part that touched (what a bumper or a stall-current sensor reports)."""
 
-    obstacle: int
+    obstacle: int  # a map's cells: len(obstacles) + the map's index
     part: int  # 0 = head, 1..4 = units
     side: str = "front"  # one of SIDES, in the part's own frame (front = towards the head)
+    label: str = ""  # what it is when not an obstacle nor the wall ("map 0")
 
     @property
     def what(self) -> str:
+        if self.label:
+            return self.label
         return "wall" if self.obstacle == WALL else f"obstacle {self.obstacle}"
 
 
 @dataclass(frozen=True)
 class World:
-    """Bounds and obstacles; collision and ray queries run over all obstacles at once (``Scene``)
-    and, for the footprint, over only those whose bounding boxes come near it."""
+    """Bounds, obstacles and occupancy maps; collision and ray queries run over all obstacles
+    at once (``Scene``) and, for the footprint, over only those whose bounding boxes come near
+    it; a map's cells are looked up where the query reaches (``OccupancyRaster``), never
+    scanned whole. A map's occupied cells are reported as obstacle ``len(obstacles) + k``
+    (map ``k``)."""
 
     bounds: Bounds = field(default_factory=Bounds)
     obstacles: tuple[Obstacle, ...] = ()
+    rasters: tuple[OccupancyRaster, ...] = ()
     _scenes: dict[tuple[int, ...], Scene] = field(
         init=False, repr=False, compare=False, default_factory=dict
     )
@@ -188,15 +197,39 @@ class World:
             part = int(np.argmax(wall)) % len(fp.radii)
             return Contact(WALL, part, self._side(fp, part, self.bounds.wall_clearance))
         near = self._near(fp, float(np.max(fp.radii)))
-        if not near:
-            return None
-        hit = self._scene(near).segment_clearance(fp.starts, fp.ends) < fp.radii[:, None]
-        touched = np.any(hit, axis=0)  # [obstacles near], in the obstacles' order
-        if not np.any(touched):
-            return None
-        column = int(np.argmax(touched))
-        index, part = near[column], int(np.argmax(hit[:, column]))
-        return Contact(index, part, self._side(fp, part, _point_distance(self.obstacles[index])))
+        if near:
+            hit = self._scene(near).segment_clearance(fp.starts, fp.ends) < fp.radii[:, None]
+            touched = np.any(hit, axis=0)  # [obstacles near], in the obstacles' order
+            if np.any(touched):
+                column = int(np.argmax(touched))
+                index, part = near[column], int(np.argmax(hit[:, column]))
+                distance = _point_distance(self.obstacles[index])
+                return Contact(index, part, self._side(fp, part, distance))
+        return self._raster_contact(fp)
+
+    def _raster_contact(self, fp: Footprint) -> Contact | None:
+        """The first map whose occupied cells the footprint overlaps (after every obstacle)."""
+        for k, raster in enumerate(self.rasters):
+            gaps = raster.segment_gap(fp.starts, fp.ends, fp.radii, 1e-9)
+            if np.any(gaps < 0):
+                part = int(np.argmax(gaps < 0))
+
+                def distance(points: Array, raster: OccupancyRaster = raster) -> Array:
+                    p = np.atleast_2d(points)
+                    return raster.point_distance(p).reshape(np.shape(points)[:-1])
+
+                side = self._side(fp, part, distance)
+                return Contact(len(self.obstacles) + k, part, side, f"map {k}")
+        return None
+
+    def _raster_gap(self, fp: Footprint, reach: float) -> float:
+        """The smallest (capsule clearance - radius) to the maps' occupied cells, measured
+        within ``reach`` (``reach`` when nothing is nearer)."""
+        best = reach
+        for raster in self.rasters:
+            gaps = raster.segment_gap(fp.starts, fp.ends, fp.radii, reach)
+            best = min(best, float(np.min(gaps)))
+        return best
 
     @staticmethod
     def _side(fp: Footprint, part: int, distance: Callable[[Array], Array]) -> str:
@@ -242,8 +275,22 @@ class World:
         best = np.argmin(table, axis=-1)
         dist = table[np.arange(dirs.shape[0]), best]
         what = np.where(best == 0, WALL, np.asarray((WALL, *near))[best])
+        dist, what = self._raster_rays(origin, dirs, max_range, dist, what)
         what = np.where(dist <= max_range, what, -2)
         return np.minimum(dist, max_range), what
+
+    def _raster_rays(
+        self, origin: Array, dirs: Array, max_range: float, dist: Array, what: Array
+    ) -> tuple[Array, Array]:
+        """Rays' first hits ``dist``/``what`` with the maps' occupied cells taken in: a map's
+        cell strictly nearer than what the ray hit is what it hits (``len(obstacles) + k``)."""
+        for k, raster in enumerate(self.rasters):
+            t = raster.ray_cast(origin, dirs, max_range)
+            closer = t < dist
+            if np.any(closer):
+                dist = np.where(closer, t, dist)
+                what = np.where(closer, len(self.obstacles) + k, what)
+        return dist, what
 
     def _ray_cast_compiled(
         self, origin: Array, dirs: Array, max_range: float, close: list[int]
@@ -272,6 +319,12 @@ class World:
             dist,
             what,
         )
+        if self.rasters:
+            # the kernel capped the distances: uncap the misses so a map's cell within range wins
+            raw = np.where(what == -2, np.inf, dist)
+            raw, found = self._raster_rays(origin, dirs, max_range, raw, what)
+            found = np.where(raw <= max_range, found, -2)
+            return np.minimum(raw, max_range), cast(Array, found)
         return dist, cast(Array, what)  # integer indices, typed as ray_cast declares them
 
     def sensor_cast(
@@ -288,6 +341,8 @@ class World:
         them, then per sensor ``k`` (rays ``starts[k]:starts[k + 1]``, range ``caps[k]``) the
         first of its rays with the smallest distance capped at its range, and what that ray
         hit (-2 beyond the range). Returns (distances ``[S]``, what ``[S]``)."""
+        if self.rasters:
+            return self._sensor_cast_rays(origin, cos, sin, max_range, starts, caps)
         ids, scene = self._candidates(origin, max_range)
         if scene.circle_index.size:
             dirs = np.empty((cos.size, 2))  # as ray_cast's callers stack them
@@ -319,6 +374,30 @@ class World:
         )
         return value, what
 
+    def _sensor_cast_rays(
+        self,
+        origin: tuple[float, float],
+        cos: Array,
+        sin: Array,
+        max_range: float,
+        starts: NDArray[np.int64],
+        caps: Array,
+    ) -> tuple[Array, NDArray[np.int64]]:
+        """``sensor_cast`` with maps: every ray through ``ray_cast`` (which takes the maps'
+        cells in), then per sensor the first of its rays with the smallest capped distance."""
+        dirs = np.empty((cos.size, 2))
+        dirs[:, 0], dirs[:, 1] = cos, sin
+        dist, hits = self.ray_cast(np.array(origin), dirs, max_range)
+        dists, whats = dist.tolist(), hits.tolist()
+        value = np.empty(caps.size)
+        what = np.empty(caps.size, dtype=np.int64)
+        for k in range(caps.size):
+            cap = float(caps[k])
+            i = min(range(int(starts[k]), int(starts[k + 1])), key=lambda r: min(dists[r], cap))
+            value[k] = min(dists[i], cap)
+            what[k] = whats[i] if dists[i] <= cap else -2
+        return value, what
+
     def _candidates(
         self, origin: tuple[float, float], reach: float
     ) -> tuple[NDArray[np.int64], Scene]:
@@ -345,6 +424,8 @@ class World:
             scene = self._scene(tuple(range(len(self.obstacles))))
             clearance = scene.segment_clearance(fp.starts, fp.ends) - fp.radii[:, None]
             gap = min(gap, float(np.min(clearance)))
+        if self.rasters:
+            gap = min(gap, self._raster_gap(fp, RASTER_REACH))
         return max(gap, 0.0)
 
     def free_within(self, fp: Footprint, distance: float) -> bool:
@@ -365,6 +446,8 @@ class World:
                 scene.edge_a,
                 scene.edge_b,
             )
+            if self.rasters and gap >= distance:
+                gap = min(gap, self._raster_gap(fp, distance + 1e-9))
             return distance <= max(gap, 0.0)
         ends = np.concatenate([fp.starts, fp.ends])
         gap = float(np.min(self.bounds.wall_clearance(ends) - np.concatenate([fp.radii, fp.radii])))
@@ -372,4 +455,6 @@ class World:
         if near:
             clearance = self._scene(near).segment_clearance(fp.starts, fp.ends)
             gap = min(gap, float(np.min(clearance - fp.radii[:, None])))
+        if self.rasters and gap >= distance:
+            gap = min(gap, self._raster_gap(fp, distance + 1e-9))
         return distance <= max(gap, 0.0)

@@ -206,7 +206,7 @@ def head_sensors(spec: MissionSpec) -> tuple[RangeSensor, ...]:
 
 
 def sim_robot(spec: MissionSpec, dt: float = 0.25) -> SimRobot:
-    """The simulated robot of a mission: its world (every obstacle, hidden ones included),
+    """The simulated robot of a mission: its world (every obstacle and map, hidden ones included),
     its sensors (forward IR + ring, seeded noise), deformation and dropout events."""
     obstacles = tuple(spec.world_obstacles())
     events: list[Event] = []
@@ -215,7 +215,8 @@ def sim_robot(spec: MissionSpec, dt: float = 0.25) -> SimRobot:
             events.append(Deformation(e.t, e.joints))
         else:
             events.append(SensorDropout(e.t, e.duration, tuple(e.sensors)))
-    world = World(spec.bounds.bounds(), obstacles)
+    rasters = tuple(raster for raster, _ in spec.world_maps())  # known and hidden alike
+    world = World(spec.bounds.bounds(), obstacles, rasters)
     simulator = Simulator(
         world, sensors=SensorSuite(range_sensors=head_sensors(spec)), events=tuple(events), dt=dt
     )

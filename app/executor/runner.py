@@ -136,7 +136,8 @@ class MissionRunner:
         assert shape is not None
         known = [o for o in spec.world_obstacles() if o.known]
         settings = navigation_settings(spec)
-        world = WorldModel(spec.bounds.bounds(), known, settings.costmap)
+        maps = [raster for raster, is_known in spec.world_maps() if is_known]
+        world = WorldModel(spec.bounds.bounds(), known, settings.costmap, maps=maps)
         observation = robot.observe()
         ctx = MissionContext(
             spec=spec,

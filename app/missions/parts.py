@@ -24,6 +24,7 @@ ARRIVE_FRACTION = 0.4  # a goal is marked reached within this fraction of its to
 MAX_GOALS = 50
 MAX_EVENTS = 20
 MAX_CHAIN = 50
+MAX_MAPS = 16
 ARENA_LIMIT = 500.0  # metres from the origin
 MAX_ARENA_CELLS = 1_000_000  # lattice cells: bounds planning memory and each distance map's time
 Coord = Annotated[

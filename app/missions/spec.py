@@ -12,22 +12,27 @@ from collections.abc import Container, Sequence
 from pathlib import Path
 from typing import Annotated, Literal
 
+import numpy as np
+from numpy.typing import NDArray
 from pydantic import (
     BaseModel,
     Field,
     PrivateAttr,
     ValidationError,
+    ValidationInfo,
     field_validator,
     model_validator,
 )
 from pydantic import Strict as StrictNumber  # no bool or string coerced into a number
 
 from app.missions.chain import ChainStep
+from app.missions.maps import MapEntry, MapsNeeded, resolve, union_extent
 from app.missions.parts import (
     ARRIVE_FRACTION,
     MAX_CHAIN,
     MAX_EVENTS,
     MAX_GOALS,
+    MAX_MAPS,
     BoundsSpec,
     Coord,
     DropoutEvent,
@@ -48,6 +53,7 @@ from app.settings import max_obstacles
 from primitives.coverage import covers
 from primitives.shapes import FIXED_SHAPES, SHAPES, shape_named
 from sim.obstacles import Obstacle, obstacle_from_dict
+from sim.raster import OccupancyRaster
 from sim.robot import DEFAULT_GEOMETRY
 from sim.world import Bounds, World, footprint
 
@@ -58,6 +64,7 @@ __all__ = [  # the pieces a caller may take from here as well
     "DropoutEvent",
     "GoalSpec",
     "Joint",
+    "MapsNeeded",
     "MissionFileError",
     "MissionSpec",
     "ObstacleSpec",
@@ -70,19 +77,54 @@ __all__ = [  # the pieces a caller may take from here as well
 ]
 
 
-def goal_misplaced(bounds: Bounds, obstacles: Sequence[Obstacle], x: float, y: float) -> str | None:
-    """Why a goal at (x, y) is where no robot can be: ``outside the bounds`` or ``inside
-    obstacles.j``; None when it is not. (A posted mission's goals and a goal added live.)"""
+def obstacle_boxes(obstacles: Sequence[Obstacle]) -> NDArray[np.float64]:
+    """The obstacles' bounding boxes ``[N, (x0, y0, x1, y1)]``: which obstacles can matter at
+    a point is one vectorised test, not a loop over all of them (thousands)."""
+    return np.array([o.bounding_box() for o in obstacles], dtype=float).reshape(-1, 4)
+
+
+def _near(boxes: NDArray[np.float64], x: float, y: float, reach: float) -> list[int]:
+    """The obstacles whose boxes come within ``reach`` of (x, y), in order."""
+    close = (
+        (boxes[:, 0] <= x + reach)
+        & (boxes[:, 2] >= x - reach)
+        & (boxes[:, 1] <= y + reach)
+        & (boxes[:, 3] >= y - reach)
+    )
+    return [int(j) for j in np.flatnonzero(close)]
+
+
+def goal_misplaced(
+    bounds: Bounds,
+    obstacles: Sequence[Obstacle],
+    x: float,
+    y: float,
+    boxes: NDArray[np.float64] | None = None,
+    rasters: Sequence[OccupancyRaster] = (),
+) -> str | None:
+    """Why a goal at (x, y) is where no robot can be: ``outside the bounds``, ``inside
+    obstacles.j`` or ``inside an occupied cell of maps.k``; None when it is not. (A posted
+    mission's goals and a goal added live; ``boxes``: ``obstacle_boxes`` if at hand.)"""
     if not bounds.contains(x, y):
         return "outside the bounds"
-    for j, ob in enumerate(obstacles):
-        if ob.contains(_xy(x, y))[0]:
+    boxes = obstacle_boxes(obstacles) if boxes is None else boxes
+    for j in _near(boxes, x, y, 0.0):
+        if obstacles[j].contains(_xy(x, y))[0]:
             return f"inside obstacles.{j}"
+    for k, raster in enumerate(rasters):
+        if raster.occupied_at(_xy(x, y))[0]:
+            return f"inside an occupied cell of maps.{k}"
     return None
 
 
 def goal_out_of_reach(
-    bounds: Bounds, obstacles: Sequence[Obstacle], x: float, y: float, tolerance: float
+    bounds: Bounds,
+    obstacles: Sequence[Obstacle],
+    x: float,
+    y: float,
+    tolerance: float,
+    boxes: NDArray[np.float64] | None = None,
+    rasters: Sequence[OccupancyRaster] = (),
 ) -> str | None:
     """Why the tracked point cannot come near enough to a goal: the first unit's capsule
     (radius r) is centred on the tracked point's axis, so the point can get no closer than r to
@@ -90,17 +132,16 @@ def goal_out_of_reach(
     r = DEFAULT_GEOMETRY.unit_radius
     need = r - ARRIVE_FRACTION * tolerance
     p = _xy(x, y)
+    far = f"than the robot can reach ({r:g} m around the tracked point, less 0.4 of the tolerance)"
     if float(bounds.wall_clearance(p)[0]) < need:
-        return (
-            f"closer to a wall than the robot can reach ({r:g} m around the tracked point, "
-            "less 0.4 of the tolerance)"
-        )
-    for j, ob in enumerate(obstacles):
-        if float(ob.segment_clearance(p, p)[0]) < need:
-            return (
-                f"closer to obstacles.{j} than the robot can reach ({r:g} m around the tracked "
-                "point, less 0.4 of the tolerance)"
-            )
+        return f"closer to a wall {far}"
+    boxes = obstacle_boxes(obstacles) if boxes is None else boxes
+    for j in _near(boxes, x, y, max(need, 0.0)):
+        if float(obstacles[j].segment_clearance(p, p)[0]) < need:
+            return f"closer to obstacles.{j} {far}"
+    for k, raster in enumerate(rasters):
+        if need > 0 and float(raster.point_distance(p, need)[0]) < need:
+            return f"closer to an occupied cell of maps.{k} {far}"
     return None
 
 
@@ -109,17 +150,20 @@ def body_overlap(
     obstacles: Sequence[Obstacle],
     pose: tuple[float, float, float],
     joints: Sequence[float],
+    rasters: Sequence[OccupancyRaster] = (),
 ) -> str | None:
-    """What the robot's whole body (head and four units) at ``pose`` overlaps: ``a wall`` or
-    ``obstacles.j``; None when it is clear."""
-    import numpy as np
-
-    contact = World(bounds, tuple(obstacles)).contact(
+    """What the robot's whole body (head and four units) at ``pose`` overlaps: ``a wall``,
+    ``obstacles.j`` or ``maps.k``; None when it is clear."""
+    contact = World(bounds, tuple(obstacles), tuple(rasters)).contact(
         footprint(np.asarray(pose, dtype=float), np.asarray(joints, dtype=float))
     )
     if contact is None:
         return None
-    return "a wall" if contact.obstacle < 0 else f"obstacles.{contact.obstacle}"
+    if contact.obstacle < 0:
+        return "a wall"
+    if contact.obstacle >= len(obstacles):
+        return f"an occupied cell of maps.{contact.obstacle - len(obstacles)}"
+    return f"obstacles.{contact.obstacle}"
 
 
 class MissionSpec(BaseModel):
@@ -139,10 +183,13 @@ class MissionSpec(BaseModel):
     order: Literal["given", "any"] = "given"
     """visit the goals in the given order, or in any order (the planner picks)"""
     obstacles: list[ObstacleSpec] = []
-    """obstacles, known to the planner or hidden (at most SCREWSNAKE_MAX_OBSTACLES of them, 2000
-    by default)"""
+    """obstacles, known to the planner or hidden (at most SCREWSNAKE_MAX_OBSTACLES of them,
+    10,000 by default)"""
+    maps: Annotated[list[MapEntry], Field(max_length=MAX_MAPS)] = []
+    """occupancy-grid maps in ROS map_server's format (inline, or stored by POST /maps and
+    named by id): known ones are the planner's static layer, hidden ones ground truth to sense"""
     bounds: BoundsSpec = BoundsSpec()
-    """the arena's walls"""
+    """the arena's walls; with maps and no bounds, the union of the maps' extents"""
     events: Annotated[list[EventSpec], Field(max_length=MAX_EVENTS)] = []
     """things that happen at model times: deformations, sensor dropouts"""
     planner: PlannerSpec = PlannerSpec()
@@ -179,11 +226,23 @@ class MissionSpec(BaseModel):
     # request's body in a validation process, ``app.service.validation``) and handed over as
     # it is is not checked again (pydantic runs after-validators on instances too).
     _checked: bool = PrivateAttr(default=False)
+    # The maps decoded (raster, known), in order: set by ``_consistent``.
+    _rasters: list[tuple[OccupancyRaster, bool]] = PrivateAttr(default_factory=list)
 
     @model_validator(mode="after")
-    def _consistent(self) -> MissionSpec:
+    def _consistent(self, info: ValidationInfo) -> MissionSpec:
         if self._checked:
             return self
+        self._rasters = resolve(self.maps, info.context) if self.maps else []
+        if self._rasters and "bounds" not in self.model_fields_set:
+            xmin, xmax, ymin, ymax = union_extent([r for r, _ in self._rasters])
+            try:
+                arena = BoundsSpec(xmin=xmin, xmax=xmax, ymin=ymin, ymax=ymax)
+            except ValidationError as exc:
+                why = exc.errors()[0]["msg"].removeprefix("Value error, ")
+                raise ValueError(f"bounds: the maps' union as the arena: {why}") from exc
+            # The model is frozen; the default arena is filled in once, while validating.
+            self.__dict__["bounds"] = arena
         if not self.goals and not self.chain:
             raise ValueError("goals: give at least one goal, or a chain of primitives")
         if self.goals and self.chain:
@@ -212,29 +271,46 @@ class MissionSpec(BaseModel):
                         raise ValueError(f"events.{i}.sensors: no sensor {name!r}")
         bounds = self.bounds.bounds()
         obstacles = self.world_obstacles()
+        boxes = obstacle_boxes(obstacles)
+        rasters = [r for r, _ in self._rasters]
         if not bounds.contains(self.start.x, self.start.y):
             raise ValueError("start: outside the bounds")
         for i, g in enumerate(self.goals):
-            misplaced = goal_misplaced(bounds, obstacles, g.x, g.y)
+            misplaced = goal_misplaced(bounds, obstacles, g.x, g.y, boxes, rasters)
             if misplaced is not None:
                 raise ValueError(f"goals.{i}: {misplaced}")
-        for j, ob in enumerate(obstacles):
-            if ob.contains(_xy(self.start.x, self.start.y))[0]:
+        for j in _near(boxes, self.start.x, self.start.y, 0.0):
+            if obstacles[j].contains(_xy(self.start.x, self.start.y))[0]:
                 raise ValueError(f"start: inside obstacles.{j}")
-        self._body_fits(bounds, obstacles)
+        for k, raster in enumerate(rasters):
+            if raster.occupied_at(_xy(self.start.x, self.start.y))[0]:
+                raise ValueError(f"start: inside an occupied cell of maps.{k}")
+        self._body_fits(bounds, obstacles, boxes, rasters)
         self._checked = True
         return self
 
-    def _body_fits(self, bounds: Bounds, obstacles: list[Obstacle]) -> None:
+    def _body_fits(
+        self,
+        bounds: Bounds,
+        obstacles: list[Obstacle],
+        boxes: NDArray[np.float64],
+        rasters: list[OccupancyRaster],
+    ) -> None:
         """The whole start body clear, and every goal reachable by the tracked point."""
         start = (self.start.x, self.start.y, self.start.psi)
-        overlap = body_overlap(bounds, obstacles, start, self.start_joints())
+        overlap = body_overlap(bounds, obstacles, start, self.start_joints(), rasters)
         if overlap is not None:
             raise ValueError(f"start: the robot's body (head and four units) overlaps {overlap}")
         for i, g in enumerate(self.goals):
-            unreachable = goal_out_of_reach(bounds, obstacles, g.x, g.y, g.tolerance)
+            unreachable = goal_out_of_reach(
+                bounds, obstacles, g.x, g.y, g.tolerance, boxes, rasters
+            )
             if unreachable is not None:
                 raise ValueError(f"goals.{i}: {unreachable}")
+
+    def world_maps(self) -> list[tuple[OccupancyRaster, bool]]:
+        """The mission's maps decoded, each with whether it is known (after validation)."""
+        return list(self._rasters)
 
     def unknown_primitive(self, known: Container[str]) -> tuple[int, str] | None:
         """The first chain step naming a primitive that is not in ``known``: (step, name)."""
@@ -279,6 +355,11 @@ def parse_mission(text: str, source: str = "mission") -> MissionSpec:
         ) from exc
     try:
         return MissionSpec.model_validate(data)
+    except MapsNeeded as exc:
+        raise MissionFileError(
+            f"{source}: maps: stored maps ({exc}) are the service's: give the map's YAML "
+            "instead (screwsnake mission FILE --map office.yaml)"
+        ) from exc
     except ValidationError as exc:
         first = exc.errors()[0]
         loc = first["loc"]

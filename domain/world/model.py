@@ -4,7 +4,10 @@ Layers, in the manner of a Nav2 costmap:
 
 - **static**: the arena walls and the obstacles the operator declared known, as exact distances
   from cell centres (not a rasterisation), so a 0.30 m corridor between known walls is 0.30 m
-  wide in the model and the 0.15 m robot fits.
+  wide in the model and the 0.15 m robot fits; and the known maps' occupied cells (the
+  ``sim.raster.OccupancyRaster`` the simulator collides with), as the clearance to the grid
+  cells they cover, as the sensed layer's. A known map's free cells count as observed, its
+  unknown cells as never observed.
 - **sensed**: log-odds occupancy from the head's range readings (``domain.world.sensed``: ray
   clearing before marking, cone hits shared across the arc, clamped, thresholded).
 - **observed**: the cells a beam crossed or the body covered (``domain.world.observed``).
@@ -43,6 +46,7 @@ from domain.world.sensed import SensedLayer
 from domain.world.settings import CostmapSettings
 from domain.world.static import distance_block
 from sim.obstacles import Obstacle
+from sim.raster import FREE, OCCUPIED, OccupancyRaster
 from sim.robot import DEFAULT_GEOMETRY, Array, RobotGeometry
 from sim.world import Bounds
 
@@ -56,6 +60,7 @@ class WorldModel:
         known: Sequence[Obstacle] = (),
         settings: CostmapSettings = CostmapSettings(),  # noqa: B008 (frozen, shared safely)
         geometry: RobotGeometry = DEFAULT_GEOMETRY,
+        maps: Sequence[OccupancyRaster] = (),
     ) -> None:
         self.bounds = bounds
         self.settings = settings
@@ -64,10 +69,15 @@ class WorldModel:
         self.version = 0  # changes of the lethal view (static or sensed occupancy)
         self.soft_version = 0  # changes of the risk view (observed cells, contact evidence)
         self._known: list[Obstacle] = []
+        self._maps = tuple(maps)
+        self._map_distance = self._maps_distance()
         self._reset_static()
         self._sensed = SensedLayer(self.grid, settings)
         self._sensed_map = DistanceMap(self.grid, settings.max_clearance)
         self._observed = ObservedLayer(self.grid)
+        for raster in self._maps:
+            free = raster.sample(self.grid.origin, self.grid.resolution, self.grid.shape) == FREE
+            self._observed.observe(np.flatnonzero(free).astype(np.intp))
         self._evidence = ContactEvidence(self.grid, settings)
         self._lethal: tuple[int, Array] | None = None
         self._body: tuple[float, ...] | None = None  # where the body's cells were last taken
@@ -341,12 +351,28 @@ class WorldModel:
     # --- internals ----------------------------------------------------------------------------
 
     def _reset_static(self) -> None:
-        """The static layer with walls only."""
+        """The static layer with walls and known maps only."""
         cap = self.settings.max_clearance
         x, y = np.meshgrid(self.grid.xs, self.grid.ys, indexing="ij")
         walls = self.bounds.wall_clearance(np.stack([x, y], axis=-1))
-        self._known_distance = np.full(self.grid.shape, cap)  # to known obstacles only
-        self._static = np.clip(walls, 0.0, cap)  # walls and known obstacles
+        self._known_distance = self._map_distance.copy()  # to known obstacles and maps only
+        self._static = np.minimum(np.clip(walls, 0.0, cap), self._map_distance)
+
+    def _maps_distance(self) -> Array:
+        """The clearance of every cell centre to the known maps' occupied cells: the grid
+        cells any occupied map cell overlaps, and their distance transform less half a cell
+        (``cap`` where no map has any)."""
+        cap = self.settings.max_clearance
+        grid = self.grid
+        covered = np.zeros(grid.shape, dtype=bool)
+        for raster in self._maps:
+            covered |= raster.cover(grid.origin, grid.resolution, grid.shape, OCCUPIED)
+        return clearance_map(covered, grid.resolution, cap)
+
+    @property
+    def maps(self) -> tuple[OccupancyRaster, ...]:
+        """The known maps of the static layer."""
+        return self._maps
 
 
 def _close(a: tuple[float, ...], b: tuple[float, ...]) -> bool:
