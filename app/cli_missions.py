@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from pydantic import ValidationError
 from rich import box
 from rich.console import Console
 from rich.markup import escape
@@ -17,7 +18,9 @@ from app.console import AsJson, console, emit, fail
 from app.executor.context import MissionResult
 from app.executor.runner import MissionError, MissionRunner
 from app.mission_plot import plot_mission, sensed_cells
+from app.missions.maps import read_map_yaml
 from app.missions.spec import MissionFileError, load_mission
+from sim.maps import MapError
 
 
 def print_summary(result: MissionResult, verbose: bool = False, wide: bool = False) -> None:
@@ -130,11 +133,27 @@ def mission(
     wide: Annotated[
         bool, typer.Option("--wide", help="tables one row a line, however wide (no wrapping)")
     ] = False,
+    maps: Annotated[
+        list[Path] | None,
+        typer.Option(
+            "--map",
+            help="a ROS map_server map (its YAML; the image it names is relative to it), known "
+            "to the planner; repeatable",
+        ),
+    ] = None,
+    hidden_maps: Annotated[
+        list[Path] | None,
+        typer.Option(
+            "--hidden-map",
+            help="a map_server map the robot must sense (binary); repeatable",
+        ),
+    ] = None,
     as_json: AsJson = False,
 ) -> None:
     """Run a mission headless, print a summary and write a trajectory plot."""
+    extra = [*map_entries(maps or [], True), *map_entries(hidden_maps or [], False)]
     try:
-        spec = load_mission(file)
+        spec = load_mission(file, extra)
         runner = MissionRunner(spec, load_library(library))
     except (MissionFileError, MissionError) as exc:
         raise fail(str(exc)) from exc
@@ -147,6 +166,22 @@ def mission(
         console.print(f"plot: {path}", soft_wrap=True)
     if result.status != "succeeded":
         raise typer.Exit(code=1)
+
+
+def map_entries(paths: list[Path], known: bool) -> list[dict[str, object]]:
+    """Map YAML files as a mission's inline maps (a bad one exits 2, naming the option)."""
+    option = "--map" if known else "--hidden-map"
+    out = []
+    for path in paths:
+        try:
+            out.append(read_map_yaml(path, known).model_dump())
+        except MapError as exc:
+            raise fail(f"{option} {path}: {exc}") from exc
+        except ValidationError as exc:
+            first = exc.errors()[0]
+            where = ".".join(str(p) for p in first["loc"]) or "map"
+            raise fail(f"{option} {path}: {where}: {first['msg']}") from exc
+    return out
 
 
 def paper(

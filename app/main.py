@@ -19,6 +19,7 @@ from app.api import (
     health,
     jobs,
     limits,
+    maps,
     missions,
     primitives,
     replay,
@@ -133,6 +134,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.add_middleware(ServerTiming)
     for module in (
         missions,
+        maps,
         updates,
         replay,
         primitives,

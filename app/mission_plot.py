@@ -55,7 +55,8 @@ def plot_mission(
 ) -> Path:
     """The mission's path coloured by model time, its events as markers, what it sensed."""
     states = np.array([row[1:] for row in result.trajectory])
-    world = World(spec.bounds.bounds(), tuple(spec.world_obstacles()))
+    rasters = tuple(raster for raster, _ in spec.world_maps())
+    world = World(spec.bounds.bounds(), tuple(spec.world_obstacles()), rasters)
     title = f"{spec.name}: {result.status} ({result.model_time:g} model s)"
     return plot_trajectories(
         out,

@@ -28,6 +28,7 @@ from matplotlib.patches import Patch
 from matplotlib.patches import Polygon as PolygonPatch
 
 from sim.obstacles import Circle, Obstacle
+from sim.raster import OccupancyRaster
 from sim.robot import Array
 from sim.world import World, footprint
 
@@ -81,6 +82,8 @@ def draw_world(ax: Axes, world: World | None, obstacles: Sequence[Obstacle] = ()
             lw=0.8,
         )
         obstacles = (*world.obstacles, *obstacles)
+        for raster in world.rasters:
+            draw_raster(ax, raster)
     for ob in obstacles:
         style = {
             "fc": "0.35" if ob.known else "none",
@@ -91,6 +94,30 @@ def draw_world(ax: Axes, world: World | None, obstacles: Sequence[Obstacle] = ()
             ax.add_patch(CirclePatch((ob.x, ob.y), ob.radius, **style))
         else:
             ax.add_patch(PolygonPatch(ob.vertices, closed=True, **style))
+
+
+def draw_raster(ax: Axes, raster: OccupancyRaster) -> None:
+    """A map's occupied cells (dark) and unknown cells (light), in the map's own frame turned
+    by its yaw about its origin."""
+    from matplotlib.colors import ListedColormap
+    from matplotlib.transforms import Affine2D
+
+    shade = np.where(raster.cells == 1, 1.0, np.where(raster.cells == -1, 0.5, np.nan))
+    x0, y0, yaw = raster.origin
+    nx, ny = raster.shape
+    r = raster.resolution
+    image = ax.imshow(
+        shade.T,
+        origin="lower",
+        extent=(x0, x0 + nx * r, y0, y0 + ny * r),
+        cmap=ListedColormap(["0.85", "0.3"]),
+        vmin=0.5,
+        vmax=1.0,
+        interpolation="nearest",
+        zorder=1,
+    )
+    if yaw:
+        image.set_transform(Affine2D().rotate_around(x0, y0, yaw) + ax.transData)
 
 
 def event_kind(text: str) -> str:

@@ -171,8 +171,9 @@ def _decode_png(data: bytes) -> Pixels:
     from PIL import Image  # only maps need Pillow
 
     try:
-        with Image.open(io.BytesIO(data)) as im:
-            im.load()
+        with Image.open(io.BytesIO(data)) as opened:
+            opened.load()
+            im: Image.Image = opened
             mode = im.mode
             if mode == "1":
                 im, mode = im.convert("L"), "L"

@@ -322,9 +322,9 @@ class World:
         if self.rasters:
             # the kernel capped the distances: uncap the misses so a map's cell within range wins
             raw = np.where(what == -2, np.inf, dist)
-            raw, found = self._raster_rays(origin, dirs, max_range, raw, what)
+            raw, found = self._raster_rays(origin, dirs, max_range, raw, cast(Array, what))
             found = np.where(raw <= max_range, found, -2)
-            return np.minimum(raw, max_range), cast(Array, found)
+            return np.minimum(raw, max_range), found
         return dist, cast(Array, what)  # integer indices, typed as ray_cast declares them
 
     def sensor_cast(

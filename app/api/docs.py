@@ -43,6 +43,7 @@ Send `{"type": "ping"}` for a `pong`. Every frame's JSON Schema is in the AsyncA
 
 TAGS = [
     {"name": "missions", "description": "Post, follow, update and cancel missions."},
+    {"name": "maps", "description": "Occupancy-grid maps in ROS map_server's format."},
     {"name": "primitives", "description": "The learned motor primitives the planner uses."},
     {"name": "simulate", "description": "Open-loop rollouts of one parameter set."},
     {"name": "jobs", "description": "Learning jobs: learn a primitive for a goal."},

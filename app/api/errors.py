@@ -150,7 +150,8 @@ DESCRIPTIONS = {
     401: "The API key is missing or wrong (writes, when `SCREWSNAKE_API_KEY` is set)",
     404: "No such resource (the detail names it)",
     409: "The request conflicts with the resource's state (the detail says how)",
-    413: "The request body is larger than `SCREWSNAKE_MAX_BODY` (refused before it is read)",
+    413: "The request body is larger than `SCREWSNAKE_MAX_BODY` (`SCREWSNAKE_MAX_MAP_BODY` for "
+    "`POST /maps`; refused before it is read)",
     422: "Invalid request: `field` names the first field at fault, `errors` all of them",
     503: "Busy or unavailable: the queue is full or the database failed (see `Retry-After`)",
 }

@@ -33,6 +33,7 @@ UNGUARDED_WRITES = frozenset({"/simulate"})
 # Probes, the viewer page and the API docs stay open under SCREWSNAKE_AUTH=all.
 OPEN_PATHS = frozenset({"/", "/livez", "/readyz", "/docs", "/docs/oauth2-redirect", "/redoc"})
 OPEN_PATHS |= {"/openapi.json"}
+MAP_PATHS = frozenset({"/maps", "/maps/"})  # bodies under SCREWSNAKE_MAX_MAP_BODY
 BUSY_RETRY_AFTER = 10  # seconds a client should wait when the queue is full
 
 
@@ -102,6 +103,13 @@ def origin_ok(settings: Settings, scope: Scope) -> bool:
     return bool(host) and netloc == host
 
 
+def body_limit(settings: Settings, scope: Scope) -> int:
+    """The body bytes a request may send: maps (``POST /maps``) have their own limit."""
+    if scope.get("path", "") in MAP_PATHS:
+        return settings.max_map_body
+    return settings.max_body
+
+
 def has_nul(scope: Scope) -> bool:
     query = unquote(scope.get("query_string", b"").decode("latin-1"))
     return "\x00" in scope.get("path", "") or "\x00" in query
@@ -132,7 +140,7 @@ class RequestGuard:
         if websocket or scope.get("method") in ("GET", "HEAD"):
             await self.app(scope, receive, send)
             return
-        await self.app(scope, self._counted(receive), send)
+        await self.app(scope, self._counted(receive, scope), send)
 
     def _refusal(self, scope: Scope) -> tuple[int, str, str, dict[str, Any]] | None:
         s = self.settings
@@ -145,14 +153,15 @@ class RequestGuard:
         if scope["type"] == "websocket" and not origin_ok(s, scope):
             return 403, "Forbidden", "this Origin is not allowed", {}
         length = _header(scope, b"content-length")
-        if length is not None and (not length.isdigit() or int(length) > s.max_body):
-            detail = f"the request body is limited to {s.max_body} bytes"
+        limit = body_limit(s, scope)
+        if length is not None and (not length.isdigit() or int(length) > limit):
+            detail = f"the request body is limited to {limit} bytes"
             return 413, "Request body too large", detail, {}
         return None
 
-    def _counted(self, receive: Receive) -> Receive:
+    def _counted(self, receive: Receive, scope: Scope) -> Receive:
         """``receive`` that stops a body streaming past the limit (no Content-Length)."""
-        limit, seen = self.settings.max_body, 0
+        limit, seen = body_limit(self.settings, scope), 0
 
         async def counted() -> Message:
             nonlocal seen

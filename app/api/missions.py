@@ -24,8 +24,10 @@ from app.api.schemas import (
     TransitionOut,
 )
 from app.api.validated import ValidatedRoute
+from app.missions.maps import InlineMapSpec
 from app.missions.spec import MissionSpec
 from app.missions.status import TERMINAL, MissionStatus
+from app.service.maps import store_inline
 from app.service.supervisor import QueueFull
 from app.store.models import MissionRow
 
@@ -67,6 +69,20 @@ def resource(
         replans=state.get("replans", 0),
         request=row.request,
     )
+
+
+async def store_maps(svc: Services, spec: MissionSpec, request: dict[str, Any]) -> None:
+    """A mission's inline maps are stored once by content hash (``POST /maps``'s store) and
+    named by id in the stored request: a mission row never holds a map's image."""
+    inline = [(k, m) for k, m in enumerate(spec.maps) if isinstance(m, InlineMapSpec)]
+    if not inline:
+        return
+    rasters = spec.world_maps()
+    ids = await run_in_threadpool(
+        store_inline, svc.store, [(entry, rasters[k][0]) for k, entry in inline]
+    )
+    for (k, entry), map_id in zip(inline, ids, strict=True):
+        request["maps"][k] = {"id": map_id, "known": entry.known}
 
 
 def found(svc: Services, mission_id: str) -> MissionRow:
@@ -126,6 +142,7 @@ async def create_mission(
     if idempotency_key is None and svc.supervisor.full():
         raise QueueFull()
     request = spec.model_dump(mode="json", by_alias=True)
+    await store_maps(svc, spec, request)
     timing.lap("validate")
     # Stored and queued with the other missions posted meanwhile (app.service.intake): one
     # thread hop and one transaction for a burst, not one each.

@@ -15,10 +15,12 @@ from fastapi import Request, Response
 from fastapi.exceptions import RequestValidationError
 from fastapi.routing import APIRoute
 from pydantic import BaseModel
+from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException
 
 from app.api.errors import BODY_PARSE_ERROR
-from app.service.validation import Invalid, Unparsable, Validation
+from app.service.maps import stored_maps
+from app.service.validation import Invalid, NeedsMaps, Unparsable, Validation
 
 
 def is_json(content_type: str | None) -> bool:
@@ -60,8 +62,15 @@ class ValidatedRoute(APIRoute):
         async def validated(request: Request) -> Response:
             body = await request.body()
             if body and is_json(request.headers.get("content-type")):
-                validation: Validation = request.app.state.services.validation
+                services = request.app.state.services
+                validation: Validation = services.validation
                 result = await validation.body(model, body)
+                if isinstance(result, NeedsMaps):  # a mission naming stored maps: with them
+                    found = await run_in_threadpool(stored_maps, services.store, result.ids)
+                    again = await validation.body(model, body, {"maps": found})
+                    if isinstance(again, NeedsMaps):  # (cannot be: the context holds maps)
+                        raise HTTPException(503, "maps could not be read")
+                    result = again
                 if isinstance(result, Invalid):  # FastAPI's own errors: the same 422
                     raise RequestValidationError(result.errors)
                 if isinstance(result, Unparsable):  # FastAPI's 400 (our 422, field "body")

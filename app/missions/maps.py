@@ -105,10 +105,12 @@ MapEntry = Annotated[
 
 @dataclass(frozen=True)
 class StoredMap:
-    """A stored map as validation needs it: its parameters and image."""
+    """A stored map as validation needs it: its parameters and image file."""
 
     id: str
-    spec: MapImageSpec
+    params: MapParams
+    image: bytes
+    name: str = ""
 
 
 class MapsNeeded(Exception):
@@ -130,11 +132,16 @@ def map_id(spec: MapImageSpec) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
-def decode_map(spec: MapImageSpec, known: bool, field: str) -> OccupancyRaster:
-    """The raster of a map (``ValueError`` "``field``.param: why" when it is bad; a hidden map
-    must be binary)."""
+def decode_map(
+    image: bytes | MapImageSpec, params: MapParams | None, known: bool, field: str, name: str = ""
+) -> OccupancyRaster:
+    """The raster of a map, its image file and parameters or an inline spec (``ValueError``
+    "``field``.param: why" when it is bad; a hidden map must be binary)."""
     try:
-        raster = load_raster(spec.image_bytes(), spec.params(), max_map_pixels(), spec.name)
+        if isinstance(image, MapImageSpec):
+            params, name, image = image.params(), image.name, image.image_bytes()
+        assert params is not None
+        raster = load_raster(image, params, max_map_pixels(), name)
     except MapError as exc:
         raise ValueError(f"{field}.{exc.field}: {exc.message}") from exc
     if not known:
@@ -166,9 +173,10 @@ def resolve(
             found = stored.get(entry.id)
             if found is None:
                 raise ValueError(f"{field}.id: no map {entry.id} (POST /maps stores one)")
-            out.append((decode_map(found.spec, entry.known, field), entry.known))
+            raster = decode_map(found.image, found.params, entry.known, field, found.name)
+            out.append((raster, entry.known))
         else:
-            out.append((decode_map(entry, entry.known, field), entry.known))
+            out.append((decode_map(entry, None, entry.known, field), entry.known))
     return out
 
 

@@ -338,21 +338,27 @@ class MissionFileError(ValueError):
     """A mission file that cannot be used, with the field and the reason."""
 
 
-def load_mission(path: Path) -> MissionSpec:
+def load_mission(path: Path, maps: Sequence[dict[str, object]] = ()) -> MissionSpec:
+    """A mission file, with ``maps`` (inline maps, e.g. the CLI's ``--map``) after its own."""
     try:
         text = path.read_text()
     except OSError as exc:
         raise MissionFileError(f"{path}: cannot read ({exc.strerror})") from exc
-    return parse_mission(text, str(path))
+    return parse_mission(text, str(path), maps)
 
 
-def parse_mission(text: str, source: str = "mission") -> MissionSpec:
+def parse_mission(
+    text: str, source: str = "mission", maps: Sequence[dict[str, object]] = ()
+) -> MissionSpec:
     try:
         data = json.loads(text)
     except json.JSONDecodeError as exc:
         raise MissionFileError(
             f"{source}: not valid JSON ({exc.msg} at line {exc.lineno})"
         ) from exc
+    if maps and isinstance(data, dict):
+        own = data.get("maps")
+        data["maps"] = [*(own if isinstance(own, list) else []), *maps]
     try:
         return MissionSpec.model_validate(data)
     except MapsNeeded as exc:
@@ -365,5 +371,9 @@ def parse_mission(text: str, source: str = "mission") -> MissionSpec:
         loc = first["loc"]
         # The events union's tag ("deform", "dropout") is not a field: events.0.joints, as before.
         where = ".".join(str(p) for i, p in enumerate(loc) if not (i == 2 and loc[0] == "events"))
+        msg = first["msg"]
+        if not where and msg.startswith("Value error, "):  # a model-level check names its field
+            msg = msg.removeprefix("Value error, ")
+            where, _, msg = msg.partition(": ")
         where = where or "mission"
-        raise MissionFileError(f"{source}: {where}: {first['msg']}") from exc
+        raise MissionFileError(f"{source}: {where}: {msg}") from exc

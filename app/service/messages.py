@@ -7,7 +7,7 @@ running one. All are frozen dataclasses: picklable across processes and to Ray a
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from app.missions.status import MissionStatus
@@ -123,6 +123,9 @@ class Job:
     mission_id: str
     request: dict[str, Any]
     wall_limit: float
+    # The stored maps the mission names (``app.missions.maps.StoredMap`` by id): the worker
+    # validates the request with them, and reads no store.
+    maps: dict[str, Any] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

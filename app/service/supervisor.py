@@ -26,6 +26,7 @@ from app.missions.status import TERMINAL, MissionStatus
 from app.service.frames import EndFrame, StatusEvent
 from app.service.hub import Hub
 from app.service.live import LiveMission
+from app.service.maps import referenced, stored_maps
 from app.service.messages import Ended, Job, Update
 from app.service.metrics import Metrics
 from app.service.pool import Worker, WorkerLost, make_workers
@@ -347,7 +348,8 @@ class Supervisor:
         try:
             # Not under the lock (a Ray actor may still be starting): a cancel meanwhile is
             # remembered in cancel_asked and passed on once the worker runs this mission.
-            job = Job(mission_id, row.request, self.settings.wall_limit)
+            maps = stored_maps(self.store, referenced(row.request))
+            job = Job(mission_id, row.request, self.settings.wall_limit, maps)
             try:
                 worker.begin(job)
             except WorkerLost:  # it died while idle (e.g. a lost Ray node): once more, afresh

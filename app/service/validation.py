@@ -27,6 +27,7 @@ from typing import Any, TypeVar
 
 from pydantic import BaseModel, ValidationError
 
+from app.missions.maps import MapsNeeded
 from app.service.pool import CONTEXT
 from app.service.worker import watch_server
 
@@ -50,6 +51,13 @@ class Unparsable:
     """A body that is neither JSON nor a JSON syntax error (e.g. not UTF-8, nested too deep)."""
 
 
+@dataclass(frozen=True)
+class NeedsMaps:
+    """A body naming stored maps: validated again with them in the context (``ids``)."""
+
+    ids: list[str]
+
+
 def _portable(error: dict[str, Any]) -> dict[str, Any]:
     """A pydantic error as the 422 handler reads it, small and picklable: no ``input`` (for a
     model-level error, the whole body), ``ctx`` values as text."""
@@ -62,9 +70,12 @@ def _portable(error: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
-def parse_body(model: type[BaseModel], body: bytes) -> BaseModel | Invalid | Unparsable:
+def parse_body(
+    model: type[BaseModel], body: bytes, context: dict[str, Any] | None = None
+) -> BaseModel | Invalid | Unparsable | NeedsMaps:
     """In a validation process: the body as FastAPI would parse and validate it for a route
-    whose body is ``model``: the instance, or the errors FastAPI would answer with."""
+    whose body is ``model``: the instance, or the errors FastAPI would answer with; a mission
+    naming stored maps that ``context`` does not hold asks for them (``NeedsMaps``)."""
     try:
         data = json.loads(body)
     except json.JSONDecodeError as exc:
@@ -73,7 +84,9 @@ def parse_body(model: type[BaseModel], body: bytes) -> BaseModel | Invalid | Unp
     except Exception:  # not UTF-8, nested past the parser's depth: FastAPI's 400
         return Unparsable()
     try:
-        return model.model_validate(data, from_attributes=True)
+        return model.model_validate(data, from_attributes=True, context=context)
+    except MapsNeeded as exc:
+        return NeedsMaps(exc.ids)
     except ValidationError as exc:
         return Invalid([_portable(dict(e)) for e in exc.errors(include_url=False)])
 
@@ -150,6 +163,8 @@ class Validation:
                     await loop.run_in_executor(None, self.start)
         raise ValidationUnavailable("the validation processes keep dying")
 
-    async def body(self, model: type[BaseModel], body: bytes) -> BaseModel | Invalid | Unparsable:
+    async def body(
+        self, model: type[BaseModel], body: bytes, context: dict[str, Any] | None = None
+    ) -> BaseModel | Invalid | Unparsable | NeedsMaps:
         """A JSON body validated as ``model`` (``parse_body``), in a validation process."""
-        return await self.run(parse_body, model, body)
+        return await self.run(parse_body, model, body, context)

@@ -350,7 +350,7 @@ def _run(
 ) -> None:
     begun = time.perf_counter()  # the wall-clock limit counts planning too
     mission_id, wall_limit = job.mission_id, job.wall_limit
-    spec = MissionSpec.model_validate(job.request)
+    spec = MissionSpec.model_validate(job.request, context={"maps": job.maps})
     queue.put(Transition(MissionStatus.PLANNING, where()))
     try:
         runner = MissionRunner(spec, library, mission_id=mission_id.replace("-", ""), cancel=cancel)

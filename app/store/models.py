@@ -128,3 +128,16 @@ class JobRow(Base):
     request: Mapped[dict[str, Any]] = mapped_column(JSON)
     progress: Mapped[dict[str, Any]] = mapped_column(JSON, default=dict)
     result: Mapped[dict[str, Any] | None] = mapped_column(JSON, nullable=True)
+
+
+class MapRow(Base):
+    """An occupancy-grid map, stored once: ``id`` is its content hash (image and parameters),
+    ``meta`` its parameters and what was read off it (size, extent, cell counts), ``image``
+    the image file as posted (PGM or PNG)."""
+
+    __tablename__ = "maps"
+    id: Mapped[str] = mapped_column(String(32), primary_key=True)
+    name: Mapped[str] = mapped_column(String(120))
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime, index=True)
+    meta: Mapped[dict[str, Any]] = mapped_column(JSON)
+    image: Mapped[bytes] = mapped_column(LargeBinary)

@@ -27,6 +27,7 @@ from app.store.models import (
     BlobRow,
     JobRow,
     LibraryVersionRow,
+    MapRow,
     MissionRow,
     PlanRow,
     ReplanRow,
@@ -388,6 +389,53 @@ class Store:
             s.execute(delete(BlobRow).where(BlobRow.sha256.not_in(select(used.subquery().c[0]))))
             s.commit()
             return len(ids)
+
+    # -- maps ------------------------------------------------------------------------------------
+    def add_map(
+        self, map_id: str, name: str, meta: dict[str, Any], image: bytes
+    ) -> tuple[MapRow, bool]:
+        """Store a map once by its id (a content hash): ``(row, True)`` if it is new, the row
+        already there and False if the same map was stored before (a race included)."""
+        with self.sessions() as s:
+            found = s.get(MapRow, map_id)
+        if found is not None:
+            return found, False
+        row = MapRow(id=map_id, name=name, created_at=now(), meta=meta, image=image)
+        try:
+            with self._writing(), self.sessions() as s:
+                s.add(row)
+                s.commit()
+        except IntegrityError:  # stored meanwhile by another writer: the same content
+            with self.sessions() as s:
+                again = s.get(MapRow, map_id)
+            assert again is not None
+            return again, False
+        return row, True
+
+    def get_map(self, map_id: str) -> MapRow | None:
+        with self.sessions() as s:
+            return s.get(MapRow, map_id)
+
+    def maps(self, ids: Sequence[str]) -> dict[str, MapRow]:
+        """The stored maps among ``ids``, by id."""
+        if not ids:
+            return {}
+        with self.sessions() as s:
+            rows = s.scalars(select(MapRow).where(MapRow.id.in_(sorted(set(ids)))))
+            return {row.id: row for row in rows}
+
+    def list_maps(self, limit: int, offset: int) -> tuple[list[MapRow], int]:
+        """A page of maps, newest first (their images left unloaded), and how many there are."""
+        with self.sessions() as s:
+            total = s.scalar(select(func.count()).select_from(MapRow)) or 0
+            rows = s.execute(
+                select(MapRow.id, MapRow.name, MapRow.created_at, MapRow.meta)
+                .order_by(MapRow.created_at.desc(), MapRow.id)
+                .limit(limit)
+                .offset(offset)
+            ).all()
+            out = [MapRow(id=r.id, name=r.name, created_at=r.created_at, meta=r.meta) for r in rows]
+            return out, int(total)
 
     # -- library versions and jobs ---------------------------------------------------------------
     def record_library(self, text: str, code_version: str, entries: int, source: str) -> str:

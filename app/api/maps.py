@@ -1,0 +1,189 @@
+"""Maps: post a ROS map_server map (its two files, or the JSON form), list and read them.
+
+A map is decoded and checked in a validation process (never on the event loop), stored once by
+its content hash, and named by that id in missions (``"maps": [{"id": ..., "known": true}]``).
+``POST /maps`` has its own body limit (``SCREWSNAKE_MAX_MAP_BODY``).
+"""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Depends, Query, Request, Response
+from fastapi.exceptions import RequestValidationError
+from pydantic import BaseModel, Field
+from starlette.concurrency import run_in_threadpool
+
+from app.api.deps import Svc, writer
+from app.api.errors import ApiError, responses
+from app.api.validated import is_json
+from app.service.maps import PreparedMap, image_base64, parse_form, parse_json
+from app.service.validation import Invalid
+from app.store.models import MapRow
+
+router = APIRouter(tags=["maps"])
+MEDIA = {"pgm": "image/x-portable-graymap", "png": "image/png"}
+
+
+class Extent(BaseModel):
+    xmin: float
+    xmax: float
+    ymin: float
+    ymax: float
+
+
+class Cells(BaseModel):
+    occupied: int
+    free: int
+    unknown: int
+
+
+class MapSummary(BaseModel):
+    """A stored map: its parameters (map_server's) and what was read off its image."""
+
+    id: str = Field(description="the map's id, its content hash: name it in a mission's `maps`")
+    name: str = Field(description="a name for people (the YAML's file name when posted as files)")
+    created_at: datetime
+    resolution: float = Field(description="metres per pixel")
+    origin: tuple[float, float, float] = Field(
+        description="[x, y, yaw] of the lower-left pixel's outer corner"
+    )
+    negate: int
+    occupied_thresh: float
+    free_thresh: float
+    mode: str = Field(description="trinary, scale or raw")
+    format: str = Field(description="the image's format: pgm or png")
+    width: int = Field(description="pixels")
+    height: int = Field(description="pixels")
+    extent: Extent = Field(description="the world box the map covers, metres")
+    cells: Cells = Field(description="how many cells are occupied, free, unknown")
+
+
+class MapOut(MapSummary):
+    """A stored map with its image."""
+
+    image: str = Field(description="the image file as posted, base64")
+
+
+class MapPage(BaseModel):
+    """One page of maps, newest first (without their images)."""
+
+    items: list[MapSummary]
+    total: int
+    limit: int
+    offset: int
+
+
+class MapCreated(BaseModel):
+    """The stored map's id and summary."""
+
+    id: str
+    map: MapSummary
+
+
+def summary(row: MapRow) -> MapSummary:
+    return MapSummary.model_validate(
+        {"id": row.id, "name": row.name, "created_at": row.created_at, **row.meta}
+    )
+
+
+_MAP_BODY: dict[str, Any] = {
+    "requestBody": {
+        "required": True,
+        "description": (
+            "The map as map_server's two files in a form (part `yaml`: the map's YAML; part "
+            "`image`: the PGM or PNG it names), or as JSON (`image` base64, `resolution`, "
+            "`origin`, `negate`, `occupied_thresh`, `free_thresh`, `mode`, `name`; a mission's map "
+            "entry as it is, whose `known` is ignored)"
+        ),
+        "content": {
+            "multipart/form-data": {
+                "schema": {
+                    "type": "object",
+                    "required": ["yaml", "image"],
+                    "properties": {
+                        "yaml": {"type": "string", "format": "binary"},
+                        "image": {"type": "string", "format": "binary"},
+                    },
+                }
+            },
+            "application/json": {"schema": {"$ref": "#/components/schemas/InlineMapSpec"}},
+        },
+    }
+}
+
+
+@router.post(
+    "/maps",
+    status_code=201,
+    response_model=MapCreated,
+    dependencies=[Depends(writer)],
+    openapi_extra=_MAP_BODY,
+    responses={
+        201: {"description": "Stored; `Location` is its URL"},
+        200: {"model": MapCreated, "description": "The same map was stored before: its id"},
+        **responses(401, 413, 422, 503),
+    },
+)
+async def create_map(request: Request, response: Response, svc: Svc) -> MapCreated:
+    """Decode, check and store a map (once, by content hash); its id names it in missions."""
+    body = await request.body()
+    content_type = request.headers.get("content-type", "")
+    result: PreparedMap | Invalid
+    if content_type.lower().startswith("multipart/form-data"):
+        result = await svc.validation.run(parse_form, content_type, body)
+    elif is_json(content_type) or not content_type:
+        result = await svc.validation.run(parse_json, body)
+    else:
+        raise ApiError(
+            422,
+            f"body: send the map as multipart/form-data (parts yaml and image) or as JSON, "
+            f"not {content_type.split(';')[0]}",
+            "body",
+        )
+    if isinstance(result, Invalid):
+        raise RequestValidationError(result.errors)
+    row, created = await run_in_threadpool(
+        svc.store.add_map, result.id, result.name, result.meta, result.image
+    )
+    response.status_code = 201 if created else 200
+    response.headers["Location"] = f"/maps/{row.id}"
+    return MapCreated(id=row.id, map=summary(row))
+
+
+@router.get("/maps", response_model=MapPage, responses=responses(422))
+def list_maps(
+    svc: Svc,
+    limit: Annotated[int, Query(ge=1, le=200, description="page size")] = 50,
+    offset: Annotated[int, Query(ge=0, le=10**9, description="maps to skip")] = 0,
+) -> MapPage:
+    rows, total = svc.store.list_maps(limit, offset)
+    return MapPage(items=[summary(r) for r in rows], total=total, limit=limit, offset=offset)
+
+
+def found(svc: Svc, map_id: str) -> MapRow:
+    row = svc.store.get_map(map_id) if len(map_id) == 32 else None
+    if row is None:
+        raise ApiError(404, f"map {map_id} not found")
+    return row
+
+
+@router.get("/maps/{map_id}", response_model=MapOut, responses=responses(404, 422))
+def get_map(svc: Svc, map_id: str) -> MapOut:
+    """A stored map, its image included (base64): posted again, it is the same map."""
+    row = found(svc, map_id)
+    return MapOut(**summary(row).model_dump(), image=image_base64(row))
+
+
+@router.get(
+    "/maps/{map_id}/image",
+    responses={
+        200: {"content": {"image/png": {}, "image/x-portable-graymap": {}}},
+        **responses(404, 422),
+    },
+)
+def get_map_image(svc: Svc, map_id: str) -> Response:
+    """A stored map's image file as posted (PGM or PNG)."""
+    row = found(svc, map_id)
+    return Response(row.image, media_type=MEDIA.get(row.meta.get("format", ""), "image/png"))
