@@ -90,6 +90,7 @@ def gap(  # pragma: no cover - compiled
     radii: Array,  # [C]
     bounds: Array,  # (xmin, xmax, ymin, ymax)
     margin: float,  # obstacles whose boxes lie further than this from the axes are left out
+    ids: NDArray[np.int64],  # the obstacles to look at (a superset of those near: an index's)
     boxes: Array,  # [N, 4] (x0, y0, x1, y1)
     kind: NDArray[np.int64],  # [N, 3]: circle row or -1, first edge, edges (polygons)
     centres: Array,
@@ -109,7 +110,7 @@ def gap(  # pragma: no cover - compiled
             wall = min(min(x - xmin, xmax - x), min(y - ymin, ymax - y))
             best = min(best, wall - radii[c])
             lox, loy, hix, hiy = min(lox, x), min(loy, y), max(hix, x), max(hiy, y)
-    for o in range(boxes.shape[0]):
+    for o in ids:
         b = boxes[o]
         if not (
             b[0] <= hix + margin

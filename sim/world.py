@@ -18,6 +18,7 @@ from sim.scene import Scene
 
 WALL = -1  # obstacle index reported for the arena bounds
 CANDIDATE_SLACK = 0.25  # m a ray origin may move before its candidate obstacles are found anew
+SCENES_KEPT = 256  # packed sets of nearby obstacles remembered per world
 RASTER_REACH = 0.5  # m round the body a map's cells are measured for contacts and gaps
 _NO_CIRCLES = np.zeros((0, 0))
 
@@ -168,6 +169,8 @@ class World:
         """The packed arrays of the obstacles at ``indices`` (cached: a mission meets few sets)."""
         scene = self._scenes.get(indices)
         if scene is None:
+            if len(self._scenes) >= SCENES_KEPT:  # a robot among thousands meets many sets
+                self._scenes.clear()  # (the scene of every obstacle is kept in _full)
             scene = Scene([self.obstacles[i] for i in indices])
             self._scenes[indices] = scene
         return scene
@@ -177,7 +180,7 @@ class World:
         any other obstacle is further than ``margin`` from every axis point."""
         if not self.obstacles:
             return ()
-        everything = self._scene(tuple(range(len(self.obstacles))))
+        everything = self._everything[0]
         ends = np.concatenate([fp.starts, fp.ends])
         lo, hi = ends.min(axis=0), ends.max(axis=0)
         return tuple(int(i) for i in everything.near(lo, hi, margin))
@@ -186,7 +189,7 @@ class World:
         """Obstacles whose bounding boxes come within ``reach`` of ``point`` (box distance)."""
         if not self.obstacles:
             return ()
-        everything = self._scene(tuple(range(len(self.obstacles))))
+        everything = self._everything[0]
         return tuple(int(i) for i in everything.near(point, point, reach))
 
     def contact(self, fp: Footprint) -> Contact | None:
@@ -421,7 +424,7 @@ class World:
         ends = np.concatenate([fp.starts, fp.ends])
         gap = float(np.min(self.bounds.wall_clearance(ends) - np.concatenate([fp.radii, fp.radii])))
         if self.obstacles:
-            scene = self._scene(tuple(range(len(self.obstacles))))
+            scene = self._everything[0]
             clearance = scene.segment_clearance(fp.starts, fp.ends) - fp.radii[:, None]
             gap = min(gap, float(np.min(clearance)))
         if self.rasters:
@@ -433,12 +436,19 @@ class World:
         (those whose bounding boxes come within ``distance`` + the largest radius)."""
         if collision_kernel.AVAILABLE and fp.starts.ndim == 2:
             scene, box = self._everything
+            margin = distance + max(fp.radii.tolist())
+            if scene.index is None:
+                ids = scene.all_ids
+            else:
+                ends = np.concatenate([fp.starts, fp.ends])
+                ids = scene.candidate_ids(ends.min(axis=0), ends.max(axis=0), margin)
             gap: float = collision_kernel.gap(
                 fp.starts,
                 fp.ends,
                 fp.radii,
                 box,
-                distance + max(fp.radii.tolist()),
+                margin,
+                ids,
                 scene.boxes,
                 scene.kind,
                 scene.centres,
