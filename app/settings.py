@@ -86,7 +86,8 @@ class Settings(BaseModel):
     executor: Literal["local", "ray"] = "local"  # where missions run: local processes or Ray
     ray_address: str | None = None  # a Ray cluster (e.g. ray://head:10001); None: a local Ray
     max_queued: int = Field(1000, ge=0, le=1_000_000)  # waiting missions before POST answers 503
-    max_body: int = Field(1_000_000, ge=1024, le=1_000_000_000)  # request body bytes (else 413)
+    # Request body bytes (else 413): 4 MB holds 10,000 obstacles; maps have `max_map_body`.
+    max_body: int = Field(4_000_000, ge=1024, le=1_000_000_000)
     # Obstacles one mission may list (422 naming `obstacles` beyond): the mission model reads
     # it through `max_obstacles()` wherever a mission is validated.
     max_obstacles: int = Field(10_000, ge=1, le=100_000)
