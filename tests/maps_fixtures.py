@@ -14,10 +14,7 @@ FREE, OCCUPIED, UNKNOWN = 254, 0, 205  # map_saver's shades
 def pgm(pixels: NDArray[np.integer], maxval: int = 255) -> bytes:
     """A binary PGM (P5) of ``pixels`` ``[h, w]`` (row 0 the top); 16 bit past 255."""
     h, w = pixels.shape
-    if maxval > 255:
-        body = pixels.astype(">u2").tobytes()
-    else:
-        body = pixels.astype(np.uint8).tobytes()
+    body = pixels.astype(">u2" if maxval > 255 else np.uint8).tobytes()
     return b"P5\n# made by a test\n%d %d\n%d\n" % (w, h, maxval) + body
 
 

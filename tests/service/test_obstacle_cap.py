@@ -45,7 +45,12 @@ def field_of_posts(n: int) -> dict[str, object]:
         for x, y in chosen
     ]
     bounds = {"xmin": -25, "xmax": 25, "ymin": -25, "ymax": 25}
-    return {"name": "field", "goals": [{"x": -2, "y": -1}], "obstacles": obstacles, "bounds": bounds}
+    return {
+        "name": "field",
+        "goals": [{"x": -2, "y": -1}],
+        "obstacles": obstacles,
+        "bounds": bounds,
+    }
 
 
 def test_ten_thousand_posts_validate_by_default_and_quickly() -> None:
