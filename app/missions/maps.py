@@ -180,6 +180,12 @@ def resolve(
     return out
 
 
+def referenced(request: Mapping[str, Any]) -> list[str]:
+    """The ids of the stored maps a mission request names, in its order."""
+    maps = request.get("maps") or []
+    return [m["id"] for m in maps if isinstance(m, dict) and isinstance(m.get("id"), str)]
+
+
 def union_extent(rasters: list[OccupancyRaster]) -> tuple[float, float, float, float]:
     """The world box covering every map: (xmin, xmax, ymin, ymax)."""
     boxes = [r.extent() for r in rasters]

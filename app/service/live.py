@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 
 from anyio import to_thread
 
+from app.missions.maps import StoredMap, referenced
 from app.missions.spec import body_overlap, goal_misplaced, goal_out_of_reach
 from app.missions.status import TERMINAL, MissionStatus
 from app.service.messages import (
@@ -39,9 +40,10 @@ from app.service.messages import (
     WorkerMessage,
 )
 from app.service.validation import Validation
-from app.settings import Settings, max_obstacles
+from app.settings import Settings, max_map_pixels, max_obstacles
 from app.store.repo import Store
 from primitives.shapes import shape_named
+from sim.maps import load_raster
 from sim.obstacles import obstacle_from_dict
 from sim.robot import DEFAULT_GEOMETRY
 from sim.world import Bounds
@@ -87,11 +89,16 @@ class LiveMission:
     pose: dict[str, Any] | None = None  # as last reported (x, y, psi, joints)
     guard: threading.Lock = field(default_factory=threading.Lock)  # the fields, from any thread
     turn: asyncio.Lock = field(default_factory=asyncio.Lock)  # one update at a time, in order
+    maps: list[StoredMap] = field(default_factory=list)  # the mission's maps, in its order
 
     @classmethod
-    def of(cls, mission_id: str, request: dict[str, Any]) -> LiveMission:
+    def of(
+        cls, mission_id: str, request: dict[str, Any], stored: dict[str, StoredMap] | None = None
+    ) -> LiveMission:
         goals = [goal_view(g) for g in request.get("goals", [])]
-        return cls(mission_id, request, goals)
+        found = stored or {}
+        maps = [found[i] for i in referenced(request) if i in found]
+        return cls(mission_id, request, goals, maps=maps)
 
     @property
     def planner(self) -> bool:
@@ -169,14 +176,21 @@ def _bounds(bounds: dict[str, Any]) -> Bounds:
 
 
 def goal_problem(
-    bounds: dict[str, Any], obstacles: list[dict[str, Any]], goal: dict[str, Any]
+    bounds: dict[str, Any],
+    obstacles: list[dict[str, Any]],
+    goal: dict[str, Any],
+    maps: list[StoredMap] | None = None,
 ) -> str | None:
     """Why a goal cannot join this world (a posted mission's own checks: inside the bounds,
-    outside every obstacle, reachable by the tracked point); None when it can."""
+    outside every obstacle and occupied map cell, reachable by the tracked point); None when it
+    can."""
     arena = _bounds(bounds)
     world = [obstacle_from_dict(o) for o in obstacles]
+    rasters = [load_raster(m.image, m.params, max_map_pixels()) for m in maps or []]
     x, y, tolerance = float(goal["x"]), float(goal["y"]), float(goal["tolerance"])
-    return goal_misplaced(arena, world, x, y) or goal_out_of_reach(arena, world, x, y, tolerance)
+    return goal_misplaced(arena, world, x, y, rasters=rasters) or goal_out_of_reach(
+        arena, world, x, y, tolerance, rasters=rasters
+    )
 
 
 def obstacle_problem(
@@ -258,7 +272,7 @@ class LiveUpdates:
                     "goals",
                 )
             bounds, obstacles = live.world()
-            problem = await self.validation.run(goal_problem, bounds, obstacles, goal)
+            problem = await self.validation.run(goal_problem, bounds, obstacles, goal, live.maps)
             if problem is not None:
                 raise Refused(422, f"goal: {problem}", "body")
             index = len(live.goals)

@@ -180,12 +180,6 @@ def stored_map(row: MapRow) -> StoredMap:
     return StoredMap(row.id, params, bytes(row.image), row.name)
 
 
-def referenced(request: dict[str, Any]) -> list[str]:
-    """The ids of the stored maps a mission request names."""
-    maps = request.get("maps") or []
-    return [m["id"] for m in maps if isinstance(m, dict) and isinstance(m.get("id"), str)]
-
-
 def stored_maps(store: Store, ids: list[str]) -> dict[str, StoredMap]:
     """The stored maps among ``ids`` (a store read: call it in a thread)."""
     return {map_id_: stored_map(row) for map_id_, row in store.maps(ids).items()}

@@ -22,11 +22,12 @@ from typing import Any
 
 from sqlalchemy.exc import SQLAlchemyError
 
+from app.missions.maps import referenced
 from app.missions.status import TERMINAL, MissionStatus
 from app.service.frames import EndFrame, StatusEvent
 from app.service.hub import Hub
 from app.service.live import LiveMission
-from app.service.maps import referenced, stored_maps
+from app.service.maps import stored_maps
 from app.service.messages import Ended, Job, Update
 from app.service.metrics import Metrics
 from app.service.pool import Worker, WorkerLost, make_workers
@@ -358,7 +359,7 @@ class Supervisor:
                 worker.begin(job)
             with self.lock:
                 self.assigned[mission_id] = worker
-                live = LiveMission.of(mission_id, row.request)
+                live = LiveMission.of(mission_id, row.request, maps)
                 if mission_id in self.cancel_asked:
                     worker.cancel()
                     live.stopping = "cancelling"

@@ -21,6 +21,7 @@ from tests.maps_fixtures import (
     png,
 )
 from tests.service.test_api import wait_end
+from tests.service.test_live_updates import executing, wait_for
 
 
 def post_files(client: TestClient, yaml: str, image: bytes, name: str = "office.pgm") -> Any:
@@ -175,3 +176,17 @@ def test_maps_have_their_own_body_limit(tmp_path: Any, limit: int) -> None:
         small = np.full((20, 20), 254, np.uint8)
         ok = post_files(client, OFFICE_YAML, pgm(small))
         assert ok.status_code == 201, ok.text
+
+
+def test_a_goal_added_live_inside_a_map_wall_is_refused(client: TestClient) -> None:
+    map_id = post_files(client, OFFICE_YAML, pgm(office())).json()["id"]
+    body = {**OFFICE_MISSION, "maps": [{"id": map_id, "known": True}], "speed": 5.0}
+    mission = client.post("/missions", json=body).json()
+    wait_for(client, mission["id"], executing)
+    refused = client.post(f"/missions/{mission['id']}/goals", json={"x": 0.0, "y": 1.5})
+    assert refused.status_code == 422, refused.text
+    assert "inside an occupied cell of maps.0" in refused.json()["detail"]
+    taken = client.post(f"/missions/{mission['id']}/goals", json={"x": -2.0, "y": -1.0})
+    assert taken.status_code == 202, taken.text
+    client.post(f"/missions/{mission['id']}/cancel")
+    wait_end(client, mission["id"])
