@@ -18,7 +18,14 @@ from starlette.concurrency import run_in_threadpool
 from app.api.deps import Svc, writer
 from app.api.errors import ApiError, responses
 from app.api.validated import is_json
-from app.service.maps import PreparedMap, image_base64, parse_form, parse_json
+from app.service.maps import (
+    PreparedMap,
+    image_base64,
+    parse_form,
+    parse_json,
+    render_cells,
+    stored_map,
+)
 from app.service.validation import Invalid
 from app.store.models import MapRow
 
@@ -63,7 +70,9 @@ class MapSummary(BaseModel):
 class MapOut(MapSummary):
     """A stored map with its image."""
 
-    image: str = Field(description="the image file as posted, base64")
+    image: str | None = Field(
+        default=None, description="the image file as posted, base64 (unless `image=false`)"
+    )
 
 
 class MapPage(BaseModel):
@@ -170,10 +179,26 @@ def found(svc: Svc, map_id: str) -> MapRow:
 
 
 @router.get("/maps/{map_id}", response_model=MapOut, responses=responses(404, 422))
-def get_map(svc: Svc, map_id: str) -> MapOut:
+def get_map(
+    svc: Svc,
+    map_id: str,
+    image: Annotated[bool, Query(description="include the image (base64)")] = True,
+) -> MapOut:
     """A stored map, its image included (base64): posted again, it is the same map."""
     row = found(svc, map_id)
-    return MapOut(**summary(row).model_dump(), image=image_base64(row))
+    return MapOut(**summary(row).model_dump(), image=image_base64(row) if image else None)
+
+
+@router.get(
+    "/maps/{map_id}/cells.png",
+    responses={200: {"content": {"image/png": {}}}, **responses(404, 422, 503)},
+)
+async def get_map_cells(svc: Svc, map_id: str) -> Response:
+    """A stored map's cells as the viewer draws them (a PNG, row 0 the top): occupied dark,
+    unknown light and half transparent, free transparent. Rendered off the event loop."""
+    row = await run_in_threadpool(found, svc, map_id)
+    png = await svc.validation.run(render_cells, bytes(row.image), stored_map(row).params)
+    return Response(png, media_type="image/png", headers={"Cache-Control": "max-age=3600"})
 
 
 @router.get(

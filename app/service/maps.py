@@ -197,3 +197,25 @@ def store_inline(store: Store, maps: list[tuple[InlineMapSpec, OccupancyRaster]]
 
 def image_base64(row: MapRow) -> str:
     return base64.b64encode(row.image).decode("ascii")
+
+
+def render_cells(image: bytes, params: MapParams) -> bytes:
+    """In a validation process: a stored map's classes as the viewer draws them, an RGBA PNG
+    in the image's orientation (row 0 the top): occupied dark and opaque, unknown light and
+    half transparent, free transparent."""
+    import io
+
+    import numpy as np
+    from PIL import Image
+
+    from app.settings import max_map_pixels
+    from sim.maps import load_raster
+    from sim.raster import OCCUPIED, UNKNOWN
+
+    cells = load_raster(image, params, max_map_pixels()).cells.T[::-1]  # back to image rows
+    rgba = np.zeros((*cells.shape, 4), dtype=np.uint8)
+    rgba[cells == OCCUPIED] = (51, 51, 51, 255)
+    rgba[cells == UNKNOWN] = (160, 160, 160, 90)
+    out = io.BytesIO()
+    Image.fromarray(np.ascontiguousarray(rgba), mode="RGBA").save(out, format="PNG")
+    return out.getvalue()

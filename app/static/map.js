@@ -28,6 +28,7 @@ export const LEGEND = [
   ["sensed occupancy", `background:${STYLE.sensed}`],
   ["contact cells (bumper)", `background:${STYLE.contact}`],
   ["truth (hidden obstacle)", `border:2px dashed ${STYLE.truth.stroke}`],
+  ["map: occupied / unknown", `background:linear-gradient(90deg,#333 50%,rgba(160,160,160,0.35) 50%)`],
   ["goal N (its API index) / reached", `border:2px solid ${STYLE.goal};border-radius:50%;box-shadow:inset 0 0 0 2px ${STYLE.reached}`],
   ["robot body (4 units)", `background:${STYLE.robot};border-radius:5px`],
   ["head", dot(STYLE.head)],
@@ -275,6 +276,26 @@ function goalMarks(ctx, cam, goals) {
   return out;
 }
 
+/** An occupancy-grid map's cells (a bitmap, row 0 the top) in the world: its lower-left
+ * corner at the map's origin, turned by its yaw (the canvas's y runs down: the turn is -yaw). */
+function drawMap(ctx, cam, map) {
+  const { origin, resolution, width, height } = map.meta;
+  ctx.save();
+  ctx.imageSmoothingEnabled = false;
+  ctx.translate(cam.X(origin[0]), cam.Y(origin[1]));
+  ctx.rotate(-origin[2]);
+  const s = resolution * cam.scale;
+  if (!map.known) {
+    ctx.globalAlpha = 0.55; // the truth, lighter than what the planner knows
+  }
+  ctx.drawImage(map.bitmap, 0, -height * s, width * s, height * s);
+  if (!map.known) {
+    ctx.globalAlpha = 1; ctx.setLineDash([5, 4]); ctx.lineWidth = 2; ctx.strokeStyle = STYLE.truth.stroke;
+    ctx.strokeRect(0, -height * s, width * s, height * s);
+  }
+  ctx.restore();
+}
+
 /** Draw everything of ``scene`` on the canvas; returns what was drawn (for tests, as
  * ``window.viewer.drawn``: label boxes, obstacle boxes, goals, ... in canvas pixels). */
 export function drawScene(canvas, cam, scene) {
@@ -297,6 +318,12 @@ export function drawScene(canvas, cam, scene) {
   ctx.strokeStyle = "#999"; ctx.lineWidth = 1;
   ctx.strokeRect(cam.X(b.xmin), cam.Y(b.ymax), (b.xmax - b.xmin) * cam.scale, (b.ymax - b.ymin) * cam.scale);
   const onScreen = (box) => box[2] >= 0 && box[0] <= w && box[3] >= 0 && box[1] <= h;
+  out.maps = [];
+  for (const map of scene.maps || []) {
+    if (!map.known && !scene.truth) continue; // a hidden map is the truth: shown with it
+    drawMap(ctx, cam, map);
+    out.maps.push({ id: map.id, known: map.known });
+  }
   for (const known of scene.obstacles || []) {
     const o = known.obstacle;
     outline(ctx, cam, o); ctx.fillStyle = STYLE.known.fill; ctx.fill();

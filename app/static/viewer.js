@@ -15,6 +15,7 @@ const WORLD_POLL_MS = 2000, LIST_POLL_MS = 3000, PENDING_MS = 5000;
 const state = {
   mission: null, status: "", reason: "", socket: null, live: false,
   pose: null, trail: [], plan: [], planVersion: 0, action: "", rays: null, tree: null,
+  maps: [], // the mission's occupancy-grid maps: {id, known, meta, bitmap}
   goals: [], obstacles: [], // what the map draws: live, the current ones; in a replay, those of the slider's time
   world: { sensed: [], contacts: [], resolution: 0.05 }, events: [],
   replay: null, replayT: null, planAt: null, planFrom: null, truth: false, drawn: null,
@@ -384,6 +385,23 @@ async function finish(id, token) {
   setStatus();
 }
 
+/** The mission's maps (known, and hidden for "truth"): each one's parameters and its cells as
+ * a bitmap (fetched with the key, if any: an <img> could not send it). */
+async function loadMaps(m, token) {
+  const entries = (m.request.maps || []).filter((e) => e.id);
+  const maps = await Promise.all(entries.map(async (e) => {
+    const meta = await api(`/maps/${e.id}?image=false`);
+    const headers = {};
+    const key = sessionStorage.getItem(KEY);
+    if (key) headers.Authorization = `Bearer ${key}`;
+    const r = await fetch(`/maps/${e.id}/cells.png`, { headers });
+    if (!r.ok) throw new Error(`map ${e.id}: ${r.status}`);
+    const bitmap = await createImageBitmap(await r.blob());
+    return { id: e.id, known: e.known !== false, meta, bitmap };
+  }));
+  if (token === selecting) state.maps = maps;
+}
+
 async function loadTreeOnce(id, token) {
   const tree = await api(`/missions/${id}/tree`);
   if (token !== selecting || !tree || !tree.name) return;
@@ -398,13 +416,14 @@ async function select(id) {
   Object.assign(state, {
     socket: null, pose: null, trail: [], plan: [], planVersion: 0, action: "", rays: null, reason: "",
     world: { sensed: [], contacts: [], resolution: 0.05 }, events: [], replay: null, replayT: null, live: false,
-    planAt: null, planFrom: null, goals: [], obstacles: [], pending: null,
+    planAt: null, planFrom: null, goals: [], obstacles: [], pending: null, maps: [],
   });
   showTree(null); showPlan([]); showEvents(); $("replay").hidden = true;
   const m = await api(`/missions/${id}`);
   if (token !== selecting) return;
   state.mission = m; state.status = m.status; state.reason = m.reason;
   mergeKnown(m.goals, m.obstacles || []);
+  loadMaps(m, token).catch(() => {});
   fitMission();
   for (const li of $("missions").querySelectorAll("li")) li.classList.toggle("selected", li.dataset.id === id);
   setStatus();
@@ -492,7 +511,7 @@ function atReplayEnd() {
 
 function frame() {
   state.drawn = drawScene($("arena"), cam, {
-    mission: state.mission, goals: state.goals, obstacles: state.obstacles, world: state.world,
+    mission: state.mission, goals: state.goals, obstacles: state.obstacles, world: state.world, maps: state.maps,
     truth: state.truth, trail: state.trail, pose: state.pose, plan: state.plan, current: currentAction(),
     rays: state.rays, planFrom: state.replayT === null || currentAction() ? null : state.planFrom, planStart: remainingFrom(),
     events: state.replayT === null ? state.events : state.events.filter((e) => e.t <= state.replayT),

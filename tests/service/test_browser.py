@@ -222,3 +222,32 @@ def test_docs_render_offline_with_every_operation_listed(server: str, browser: A
     page.close()
     assert not blocked, blocked  # ReDoc's badge too (its image is inlined)
     assert not console_errors, console_errors
+
+
+def test_viewer_draws_known_maps_and_hidden_ones_with_the_truth(server: str, browser: Any) -> None:  # noqa: F811
+    from tests.maps_fixtures import OFFICE_MISSION, OFFICE_YAML, office, office_map, pgm
+
+    files = {"yaml": ("office.yaml", OFFICE_YAML.encode()), "image": ("office.pgm", pgm(office()))}
+    map_id = httpx.post(f"{server}/maps", files=files, timeout=30).json()["id"]
+    known = {**OFFICE_MISSION, "maps": [{"id": map_id, "known": True}]}
+    first = httpx.post(f"{server}/missions", json=known, timeout=30).json()["id"]
+    wait_ended(server, first)
+    hidden = {**OFFICE_MISSION, "maps": [office_map(known=False, unknown_band=False)]}
+    second = httpx.post(f"{server}/missions", json=hidden, timeout=30).json()["id"]
+    wait_ended(server, second)
+
+    page = new_page(browser, server)
+    page.click(f"#missions li[data-id='{first}']")
+    page.wait_for_function("window.viewer.drawn && window.viewer.drawn.maps.length === 1")
+    assert page.evaluate("window.viewer.drawn.maps") == [{"id": map_id, "known": True}]
+    assert "map: occupied / unknown" in page.inner_text("#legend")
+    shot(page, "viewer-known-map.png")
+    # a hidden map is the truth: drawn only with "truth" ticked
+    page.click(f"#missions li[data-id='{second}']")
+    page.wait_for_function("window.viewer.maps.length === 1 && !window.viewer.maps[0].known")
+    assert page.evaluate("window.viewer.drawn.maps.length") == 0
+    page.check("#truth")
+    page.wait_for_function("window.viewer.drawn.maps.length === 1")
+    assert page.evaluate("window.viewer.world.sensed.length") > 0  # its walls were sensed
+    shot(page, "viewer-hidden-map.png")
+    assert not page.errors
