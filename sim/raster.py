@@ -317,3 +317,11 @@ def segment_box_distance(a: Array, b: Array, low: Array, high: Array) -> Array:
         t1 = np.minimum(t1, np.maximum(u, v))
     out: Array = np.where(t0 <= t1, 0.0, best)
     return out
+
+
+def warm() -> None:
+    """Load the compiled raster kernel (numba's disk cache; compiled on a first run ever), so
+    that a process's first map pays nothing for it."""
+    raster = OccupancyRaster(np.array([[OCCUPIED, FREE]], dtype=np.int8), 0.05)
+    point = np.zeros((1, 2))
+    raster.segment_gap(point, point, np.zeros(1), 0.1)

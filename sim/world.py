@@ -19,7 +19,6 @@ from sim.scene import Scene
 WALL = -1  # obstacle index reported for the arena bounds
 CANDIDATE_SLACK = 0.25  # m a ray origin may move before its candidate obstacles are found anew
 SCENES_KEPT = 256  # packed sets of nearby obstacles remembered per world
-RASTER_REACH = 0.5  # m round the body a map's cells are measured for contacts and gaps
 _NO_CIRCLES = np.zeros((0, 0))
 
 
@@ -427,8 +426,8 @@ class World:
             scene = self._everything[0]
             clearance = scene.segment_clearance(fp.starts, fp.ends) - fp.radii[:, None]
             gap = min(gap, float(np.min(clearance)))
-        if self.rasters:
-            gap = min(gap, self._raster_gap(fp, RASTER_REACH))
+        if self.rasters and gap > 0:  # map cells further than the gap so far cannot lower it
+            gap = min(gap, self._raster_gap(fp, gap + 1e-9))
         return max(gap, 0.0)
 
     def free_within(self, fp: Footprint, distance: float) -> bool:

@@ -19,6 +19,7 @@ from app.missions.spec import MissionSpec
 from domain.navigation import HeadView, warm_tables
 from domain.navigation.lattice import states as lattice_states
 from primitives.library import Library
+from sim import raster
 
 log = logging.getLogger(__name__)
 
@@ -47,6 +48,7 @@ def warm_up(library: Library) -> float:
         MissionRunner(spec, library).run()
         # every shape's tables, as missions' planners make them (reshaping reads them)
         warm_tables(library, navigation_settings(spec), HeadView.of(head_sensors(spec)))
+        raster.warm()  # the maps' compiled collision kernel
     except Exception:  # a warm-up is an optimisation, never a reason to stop
         log.exception("warm-up mission failed; missions will run cold")
     # What the process holds now (modules, the library, compiled kernels, motion tables) lives

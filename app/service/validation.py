@@ -114,7 +114,11 @@ def screwsnake_environment() -> dict[str, str]:
 
 
 def _ready() -> bool:
-    """A validation process's first job: it runs (its modules came with the forkserver)."""
+    """A validation process's first job: it runs (its modules came with the forkserver), with
+    the maps' compiled kernel loaded (a mission's map is checked against the robot's body)."""
+    from sim import raster
+
+    raster.warm()
     return True
 
 
