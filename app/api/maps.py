@@ -10,9 +10,9 @@ from __future__ import annotations
 from datetime import datetime
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Depends, Query, Request, Response
+from fastapi import APIRouter, Depends, Path, Query, Request, Response
 from fastapi.exceptions import RequestValidationError
-from pydantic import BaseModel, Field
+from pydantic import BaseModel, ConfigDict
 from starlette.concurrency import run_in_threadpool
 
 from app.api.deps import Svc, writer
@@ -33,62 +33,98 @@ router = APIRouter(tags=["maps"])
 MEDIA = {"pgm": "image/x-portable-graymap", "png": "image/png"}
 
 
-class Extent(BaseModel):
+class Described(BaseModel):
+    # Attribute docstrings are the fields' descriptions in the OpenAPI schema.
+    model_config = ConfigDict(use_attribute_docstrings=True)
+
+
+class Extent(Described):
+    """The world box a map covers."""
+
     xmin: float
+    """west edge, metres"""
     xmax: float
+    """east edge, metres"""
     ymin: float
+    """south edge, metres"""
     ymax: float
+    """north edge, metres"""
 
 
-class Cells(BaseModel):
+class Cells(Described):
+    """How many of a map's cells are of each class."""
+
     occupied: int
+    """cells with p > occupied_thresh"""
     free: int
+    """cells with p < free_thresh"""
     unknown: int
+    """the others (between the thresholds; transparent or out of range in scale and raw)"""
 
 
-class MapSummary(BaseModel):
+class MapSummary(Described):
     """A stored map: its parameters (map_server's) and what was read off its image."""
 
-    id: str = Field(description="the map's id, its content hash: name it in a mission's `maps`")
-    name: str = Field(description="a name for people (the YAML's file name when posted as files)")
+    id: str
+    """the map's id, its content hash: name it in a mission's `maps`"""
+    name: str
+    """a name for people (the YAML's image file name when posted as files)"""
     created_at: datetime
-    resolution: float = Field(description="metres per pixel")
-    origin: tuple[float, float, float] = Field(
-        description="[x, y, yaw] of the lower-left pixel's outer corner"
-    )
+    """when it was first stored"""
+    resolution: float
+    """metres per pixel"""
+    origin: tuple[float, float, float]
+    """[x, y, yaw] of the lower-left pixel's outer corner (metres, radians)"""
     negate: int
+    """1: white is occupied and black free"""
     occupied_thresh: float
+    """p above this is occupied"""
     free_thresh: float
-    mode: str = Field(description="trinary, scale or raw")
-    format: str = Field(description="the image's format: pgm or png")
-    width: int = Field(description="pixels")
-    height: int = Field(description="pixels")
-    extent: Extent = Field(description="the world box the map covers, metres")
-    cells: Cells = Field(description="how many cells are occupied, free, unknown")
+    """p below this is free"""
+    mode: str
+    """trinary, scale or raw"""
+    format: str
+    """the image's format: pgm or png"""
+    width: int
+    """pixels"""
+    height: int
+    """pixels"""
+    extent: Extent
+    """the world box the map covers"""
+    cells: Cells
+    """how many cells are occupied, free, unknown"""
 
 
 class MapOut(MapSummary):
     """A stored map with its image."""
 
-    image: str | None = Field(
-        default=None, description="the image file as posted, base64 (unless `image=false`)"
-    )
+    image: str | None = None
+    """the image file as posted, base64 (unless `image=false`)"""
 
 
-class MapPage(BaseModel):
+class MapPage(Described):
     """One page of maps, newest first (without their images)."""
 
     items: list[MapSummary]
+    """the maps on this page"""
     total: int
+    """how many maps there are, on all pages"""
     limit: int
+    """page size asked for"""
     offset: int
+    """how many maps were skipped"""
 
 
-class MapCreated(BaseModel):
+class MapCreated(Described):
     """The stored map's id and summary."""
 
     id: str
+    """the map's id: name it in a mission's `maps` as {"id": ..., "known": true}"""
     map: MapSummary
+    """the map as stored"""
+
+
+MapId = Annotated[str, Path(description="the map's id (32 hex digits, from POST /maps)")]
 
 
 def summary(row: MapRow) -> MapSummary:
@@ -181,7 +217,7 @@ def found(svc: Svc, map_id: str) -> MapRow:
 @router.get("/maps/{map_id}", response_model=MapOut, responses=responses(404, 422))
 def get_map(
     svc: Svc,
-    map_id: str,
+    map_id: MapId,
     image: Annotated[bool, Query(description="include the image (base64)")] = True,
 ) -> MapOut:
     """A stored map, its image included (base64): posted again, it is the same map."""
@@ -193,7 +229,7 @@ def get_map(
     "/maps/{map_id}/cells.png",
     responses={200: {"content": {"image/png": {}}}, **responses(404, 422, 503)},
 )
-async def get_map_cells(svc: Svc, map_id: str) -> Response:
+async def get_map_cells(svc: Svc, map_id: MapId) -> Response:
     """A stored map's cells as the viewer draws them (a PNG, row 0 the top): occupied dark,
     unknown light and half transparent, free transparent. Rendered off the event loop."""
     row = await run_in_threadpool(found, svc, map_id)
@@ -208,7 +244,7 @@ async def get_map_cells(svc: Svc, map_id: str) -> Response:
         **responses(404, 422),
     },
 )
-def get_map_image(svc: Svc, map_id: str) -> Response:
+def get_map_image(svc: Svc, map_id: MapId) -> Response:
     """A stored map's image file as posted (PGM or PNG)."""
     row = found(svc, map_id)
     return Response(row.image, media_type=MEDIA.get(row.meta.get("format", ""), "image/png"))
