@@ -7,6 +7,7 @@ its content hash, and named by that id in missions (``"maps": [{"id": ..., "know
 
 from __future__ import annotations
 
+import base64
 from datetime import datetime
 from typing import Annotated, Any
 
@@ -133,6 +134,16 @@ def summary(row: MapRow) -> MapSummary:
     )
 
 
+EXAMPLE_YAML = (
+    "image: office.pgm\nresolution: 0.05\norigin: [-3.0, -2.0, 0.0]\nnegate: 0\n"
+    "occupied_thresh: 0.65\nfree_thresh: 0.196\n"
+)
+EXAMPLE_JSON = {
+    "image": base64.b64encode(b"P5\n3 2\n255\n" + bytes([0, 254, 254, 254, 254, 0])).decode(),
+    "resolution": 0.5,
+    "origin": [0.0, 0.0, 0.0],
+    "name": "tiny",
+}
 _MAP_BODY: dict[str, Any] = {
     "requestBody": {
         "required": True,
@@ -151,9 +162,23 @@ _MAP_BODY: dict[str, Any] = {
                         "yaml": {"type": "string", "format": "binary"},
                         "image": {"type": "string", "format": "binary"},
                     },
-                }
+                },
+                "examples": {
+                    "office": {
+                        "summary": "map_server's two files (curl -F yaml=@office.yaml -F image=@office.pgm)",
+                        "value": {"yaml": EXAMPLE_YAML, "image": "(the PGM or PNG file)"},
+                    }
+                },
             },
-            "application/json": {"schema": {"$ref": "#/components/schemas/InlineMapSpec"}},
+            "application/json": {
+                "schema": {"$ref": "#/components/schemas/InlineMapSpec"},
+                "examples": {
+                    "tiny": {
+                        "summary": "a 3 x 2 PGM: occupied top-left and bottom-right",
+                        "value": EXAMPLE_JSON,
+                    }
+                },
+            },
         },
     }
 }
