@@ -104,6 +104,9 @@ class CollisionEvent(TimedEvent):
     part: int = Field(description="0 the head, 1..4 the screw units")
     side: str = Field(description="front, rear, left or right")
     at: list[float] | None = Field(default=None, description="where it was felt [x, y], metres")
+    action: str | None = Field(
+        default=None, description="the step running when it was felt (a plan's move, a recovery)"
+    )
 
 
 class GoalReachedEvent(TimedEvent):
@@ -135,6 +138,23 @@ class UpdateEvent(TimedEvent):
     kind: Literal["update"]
     update: str = Field(description="add_goal, remove_goal, add_obstacle, pause or resume")
     detail: dict[str, Any] = Field(description="the update's fields (goal index, obstacle)")
+
+
+class RecoveryEvent(TimedEvent):
+    """A recovery of the behaviour tree started (after a contact or a failed plan)."""
+
+    kind: Literal["recovery"]
+    recovery: str = Field(description="back off, spin to sense, reshape or clear stale evidence")
+    because: str = Field(description="the failure it answers (the contact, or the plan's reason)")
+    moves: list[str] = Field(description="the library primitives (or 'wait') it runs, in order")
+
+
+class RecoveryDoneEvent(TimedEvent):
+    """A recovery ended; the plan is made again from where the robot stands."""
+
+    kind: Literal["recovery_done"]
+    recovery: str = Field(description="which recovery")
+    outcome: str = Field(description="done, or stopped by a contact")
 
 
 class PlanFrame(Frame):
@@ -195,7 +215,9 @@ Event = Annotated[
     | GoalReachedEvent
     | ObstacleSensedEvent
     | DropoutEvent
-    | UpdateEvent,
+    | UpdateEvent
+    | RecoveryEvent
+    | RecoveryDoneEvent,
     Field(discriminator="kind"),
 ]
 StreamFrame = (
@@ -209,6 +231,8 @@ StreamFrame = (
     | ObstacleSensedEvent
     | DropoutEvent
     | UpdateEvent
+    | RecoveryEvent
+    | RecoveryDoneEvent
     | PlanFrame
     | EndFrame
 )

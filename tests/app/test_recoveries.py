@@ -19,6 +19,7 @@ from app.executor.recoveries import RecoveryNode, RoundRobin
 from app.executor.runner import MissionRunner
 from app.executor.tree import build_tree
 from app.missions.spec import MissionSpec, load_mission
+from app.service.frames import parse_frame
 from bench.worlds import layout
 from domain.navigation import RecoverySettings
 from primitives.library import load_bundled
@@ -87,6 +88,15 @@ def test_a_mission_that_touches_something_backs_off_and_still_reaches_its_goal()
     # the goal was reached after the back-off
     reached = next(e for e in result.events if e["kind"] == "goal_reached")
     assert reached["t"] > done["t"]
+    # and every event is a frame of the websocket's protocol, recoveries included (a replan's
+    # frame gets its old and new plans from the worker)
+    frames = [
+        parse_frame(
+            {"type": "event", **e} | ({"old": [], "new": []} if e["kind"] == "replan" else {})
+        )
+        for e in result.events
+    ]
+    assert {"recovery", "recovery_done"} <= {getattr(f, "kind", None) for f in frames}
 
 
 def pocket_mission() -> tuple[MissionRunner, Any]:
