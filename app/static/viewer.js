@@ -182,6 +182,8 @@ function eventText(e) {
     case "dropout": return `${t} dropout of ${(e.sensors || []).join(", ")} for ${secs(e.duration || 0)}`;
     case "shape_change": return `${t} shape ${e.previous} → ${e.shape}`;
     case "update": return `${t} update: ${updateText(e)}`;
+    case "recovery": return `${t} recovery: ${e.recovery} (${e.because}): ${(e.moves || []).join(", ") || "no motion"}`;
+    case "recovery_done": return `${t} recovery ${e.recovery}: ${e.outcome}`;
     default: {
       const skip = new Set(["t", "kind", "x", "y", "type"]);
       const rest = Object.entries(e).filter(([k]) => !skip.has(k)).map(([k, v]) => `${k}=${typeof v === "object" ? JSON.stringify(v) : v}`);
