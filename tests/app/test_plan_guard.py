@@ -12,8 +12,8 @@ from app.executor.runner import MissionRunner
 from app.missions.spec import MissionSpec
 from domain.navigation import NavigationStrategy
 from domain.triggers import PathBlocked
-from domain.world import RangeObservation
 from primitives.library import load_bundled
+from tests.domain.lattice_scenes import sense_post
 
 LIB = load_bundled()
 
@@ -62,11 +62,7 @@ def test_the_first_blocked_move_is_reported(pick: int) -> None:
     # now: the cells it lies over are known free).
     x, y, psi = moves[pick].target
     ex, ey = x + 0.95 * math.cos(psi), y + 0.95 * math.sin(psi)
-    for _ in range(20):  # echoes until sensed (more where beams had crossed it free)
-        ctx.world.integrate([RangeObservation((ex, ey + 0.5), -math.pi / 2, 0.0, 1.0, 0.5, True)])
-        if ctx.world.sensed_occupied().any():
-            break
-    assert ctx.world.sensed_occupied().any()
+    sense_post(ctx.world, ex, ey, -math.pi / 2)  # echoes from the north until it is sensed
     want = first_blocked_one_by_one(strategy, ctx.world)
     got = strategy.broken(ctx.situation())
     assert want is not None and isinstance(got, PathBlocked)

@@ -164,12 +164,14 @@ def looked_round(world: WorldModel) -> WorldModel:
     return world
 
 
-def sense_post(world: WorldModel, x: float, y: float) -> None:
-    """Consistent echoes of a ray from 0.5 m east of (x, y) until its cell is sensed (lethal):
-    three where nothing was seen, more where beams had crossed it free."""
+def sense_post(world: WorldModel, x: float, y: float, heading: float = math.pi) -> None:
+    """Consistent echoes at (x, y) of a ray cast along ``heading`` from 0.5 m back (by default
+    from the east) until its cell is sensed (lethal): three where nothing was seen, more where
+    beams had crossed it free."""
     version = world.version
+    origin = (x - 0.5 * math.cos(heading), y - 0.5 * math.sin(heading))
     for _ in range(20):
-        world.integrate([RangeObservation((x + 0.5, y), math.pi, 0.0, 1.0, 0.5, True)])
+        world.integrate([RangeObservation(origin, heading, 0.0, 1.0, 0.5, True)])
         if world.version > version and world.sensed_occupied().any():
             return
     raise AssertionError("the post was not sensed")
