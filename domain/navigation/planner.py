@@ -90,8 +90,11 @@ class Planner:
         return table.pose_of_centroid(self.grid.centre(i, j), k)
 
     # -- what one replan reads --------------------------------------------------------------
-    def inputs(self, world: WorldModel, table: MotionTable) -> CostInputs:
-        """The costmap's views as ``table``'s cost evaluation reads them."""
+    def inputs(
+        self, world: WorldModel, table: MotionTable, near: tuple[float, float] | None = None
+    ) -> CostInputs:
+        """The costmap's views as ``table``'s cost evaluation reads them, never-observed space
+        priced from where the robot is (``near``; ``None``: as if it were everywhere)."""
         grid, b = self.grid, self.grid.bounds
         lethal = world.lethal_clearance()
         if lethal.shape != (grid.nx, grid.ny):
@@ -99,7 +102,8 @@ class Planner:
         gf = np.array([b.xmin, b.ymin, self.settings.resolution])
         geo = np.array([b.xmin, b.ymin, self.settings.resolution, b.xmin, b.xmax, b.ymin, b.ymax])
         params = cost_parameters(self.settings.costs)
-        risk = world.risk()
+        c = self.settings.costs
+        risk = world.risk(near, c.sensing_horizon, c.beyond_horizon)
         blocked = world.blocked()
         quiet = quiet_cells(risk, blocked, table.cell_reach_new + 1)
         return CostInputs(grid.nx, grid.ny, gf, lethal, geo, risk, blocked, quiet, params)
@@ -275,7 +279,7 @@ class Planner:
 
     def _plan(self, request: PlanRequest, started: float, deadline: float) -> Plan | Failure:
         table, world = request.table, request.world
-        inputs = self.inputs(world, table)
+        inputs = self.inputs(world, table, (request.pose[0], request.pose[1]))
         cache = self.cache(table, world, inputs)
         start = self.key_of(table, request.pose)
         if request.previous is not None and self.search == searches.COST_SEARCH:
@@ -359,10 +363,15 @@ class Planner:
             if plan.actions:
                 plan.partial = True  # the legs before it stand: go there, plan again
                 return plan
+            spent = (
+                f"within {s.expansions:,} expansions"
+                if found.expansions >= s.expansions
+                else f"(the {self.search} search gave up after {found.expansions:,} expansions)"
+            )
             return Failure(
                 "timeout",
                 f"planning timeout: no plan to goal {goal.index} at ({goal.x:g}, {goal.y:g}) "
-                f"within {s.expansions:,} expansions",
+                f"{spent}",
                 None,
                 goal.index,
                 plan.expansions,

@@ -51,6 +51,14 @@ class CostSettings:
     blocked_cost: float = 3.0
     """metres a plan would go round to avoid a move that would find its way blocked: the
     approach that sensing then stops, the way back out and a replan (a few body lengths)"""
+    sensing_horizon: float = 1.5
+    """metres from the robot within which never-observed space carries its whole prior risk
+    (the head's ring reaches 1.5 m: what lies within it may be swept before anything looks
+    at it) ..."""
+    beyond_horizon: float = 0.2
+    """... and the share of that risk it carries farther out: a way there, mostly head first,
+    will have looked at most of it by the time the body arrives (pricing it whole makes
+    every distant turn dear and the search wide; 1 prices it whole)"""
 
     def __post_init__(self) -> None:
         _check_finite(self, "cost settings")
@@ -62,6 +70,8 @@ class CostSettings:
             or min(self.narrow_weight, self.cramped_weight) < 1
         ):
             raise ValueError("cost settings: penalties must be >= 0")
+        if not (self.sensing_horizon >= 0 and 0 <= self.beyond_horizon <= 1):
+            raise ValueError("cost settings: sensing_horizon >= 0, beyond_horizon in [0, 1]")
 
 
 @dataclass(frozen=True)

@@ -30,6 +30,7 @@ them blind risks. ``version`` counts changes of the lethal view, ``soft_version`
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Sequence
 from typing import Any
 
@@ -38,7 +39,7 @@ from numpy.typing import NDArray
 
 from domain.world.contact import ContactEvidence, touched_side
 from domain.world.distance import DistanceMap, clearance_map
-from domain.world.grid import Grid
+from domain.world.grid import Grid, cells_round
 from domain.world.interpolate import bilinear
 from domain.world.observation import RangeObservation
 from domain.world.observed import ObservedLayer, body_cells
@@ -233,18 +234,32 @@ class WorldModel:
         """Clearance to the walls and known obstacles alone (what the operator's map says)."""
         return bilinear(self._static, self.grid, np.asarray(points, dtype=float), self.bounds)
 
-    def risk(self) -> Array:
+    def risk(
+        self,
+        near: tuple[float, float] | None = None,
+        horizon: float = math.inf,
+        beyond: float = 1.0,
+    ) -> Array:
         """Per cell, log P(free) of what the body may touch there unseen (<= 0): the contact
         evidence; for never-observed cells the continuation of sensed obstacles and the prior
-        of ``unobserved_density``, however far from the robot (a tail-first or sideways way
-        stays blind however long it runs: the head never looks where the tail goes). A
-        read-only array kept until either version changes."""
-        key = (self.version, self.soft_version)
+        of ``unobserved_density``. With ``near`` (the robot's position), never-observed cells
+        farther than ``horizon`` from it keep only ``beyond`` of the prior: what is that far
+        will most likely have been looked at by the time the body gets there, and what the
+        head then finds in the way is planned round. A read-only array kept until the layers
+        (or the robot's cell) change."""
+        far = near is not None and beyond != 1.0 and math.isfinite(horizon)
+        cell = self.cell_of(*near) if far and near is not None else None
+        key = (self.version, self.soft_version, cell, horizon, beyond)
         if self._risk is None or self._risk[0] != key:
-            unobserved = ~self._observed.observed
-            out = self._blocked_grid() + np.where(
-                unobserved, self.settings.unobserved_log_free, 0.0
-            )
+            whole = np.where(~self._observed.observed, self.settings.unobserved_log_free, 0.0)
+            prior = whole
+            if far and near is not None:
+                prior = whole * beyond
+                centre = self.centre_of(*cell) if cell is not None else near
+                i, j, distance = cells_round(self.grid.xs, self.grid.ys, centre, horizon)
+                keep = distance <= horizon
+                prior[i[keep], j[keep]] = whole[i[keep], j[keep]]
+            out = self._blocked_grid() + prior
             out.flags.writeable = False
             self._risk = (key, out)
         return self._risk[1]

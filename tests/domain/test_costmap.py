@@ -416,6 +416,21 @@ def test_beams_and_the_body_observe_cells_and_the_risk_is_the_prior_where_unobse
     assert model.to_dict()["observed_fraction"] > 0
 
 
+def test_never_observed_space_beyond_the_horizon_carries_a_share_of_the_prior():
+    """Priced from where the robot is, never-observed space within the horizon keeps the whole
+    prior and farther space the share; observed cells and contact evidence risk the same."""
+    model = WorldModel(Bounds(-3.0, 3.0, -3.0, 3.0))
+    prior = model.settings.unobserved_log_free
+    model.integrate([ray((0.0, 0.0), 0.0, 2.5, hit=False, max_range=2.5)])
+    risk = model.risk((0.0, 0.0), 1.0, 0.25)
+    assert risk[model.cell_of(0.0, 0.8)] == pytest.approx(prior)  # within the horizon
+    assert risk[model.cell_of(0.0, 1.5)] == pytest.approx(0.25 * prior)  # beyond it
+    assert risk[model.cell_of(2.0, 0.0)] == 0.0  # a beam crossed it, far or not
+    moved = model.risk((0.0, 1.5), 1.0, 0.25)  # the robot came closer
+    assert moved[model.cell_of(0.0, 1.5)] == pytest.approx(prior)
+    assert np.array_equal(model.risk(), model.risk((0.0, 0.0), 1.0, 1.0))  # share 1: whole
+
+
 def test_the_body_lying_over_sensed_cells_frees_them():
     model = WorldModel(Bounds(-2.0, 2.0, -2.0, 2.0))
     for _ in range(3):  # a phantom on the body's axis
