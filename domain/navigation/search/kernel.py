@@ -298,10 +298,10 @@ def _run(  # pragma: no cover - compiled
         if state < 0:
             count[GOAL] = node
             return SOLVED
+        if count[EXPANSIONS] >= budget:
+            return OVER_BUDGET  # (the pop that finds it spent is no expansion)
         count[EXPANSIONS] += 1
         done += 1
-        if count[EXPANSIONS] > budget:
-            return OVER_BUDGET
         bv[here] = -(node + 1)  # closed
         k, cell = state // plane, state % plane
         if state == start:
