@@ -5,7 +5,8 @@ Two composites py_trees lacks:
 - ``RecoveryNode`` (Nav2's RecoveryNode): ticks its first child (following the plan); when that
   fails, ticks its second (the recoveries) and, once a recovery succeeds, the first again; it
   fails after ``retries`` recoveries in a row, or when no recovery applies. Recoveries count
-  from zero again once the plan has run ``settle_ticks`` ticks without failing (progress).
+  from zero again once the robot, following the plan, is ``settle_distance`` from where the last
+  recovery left it (progress: backing off a contact and driving into it again is none).
 - ``RoundRobin`` (Nav2's RoundRobin): each activation starts at the child after the one that
   ran last; a child that fails (or does not apply) hands on to the next; it fails when every
   child failed once.
@@ -20,7 +21,7 @@ while the sensors read again). Each run is a ``recovery`` event in the mission's
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,17 +47,18 @@ class RecoveryNode(py_trees.composites.Composite):
         pipeline: py_trees.behaviour.Behaviour,
         recovery: py_trees.behaviour.Behaviour,
         retries: int,
-        settle_ticks: int,
+        settle_distance: float,
+        position: Callable[[], tuple[float, float]],
     ) -> None:
         super().__init__(name, [pipeline, recovery])
-        self.retries, self.settle_ticks = retries, settle_ticks
-        self.in_a_row = 0  # recoveries since the plan last ran settle_ticks ticks
-        self.running_ticks = 0
+        self.retries, self.settle_distance, self.position = retries, settle_distance, position
+        self.in_a_row = 0  # recoveries since the robot last got settle_distance from ...
+        self.anchor: tuple[float, float] | None = None  # ... where the last one left it
         self.recovering = False
 
     def tick(self) -> Iterator[py_trees.behaviour.Behaviour]:
         if self.status != Status.RUNNING:
-            self.in_a_row, self.running_ticks, self.recovering = 0, 0, False
+            self.in_a_row, self.anchor, self.recovering = 0, None, False
             self.initialise()
         pipeline, recovery = self.children
         while True:
@@ -69,9 +71,8 @@ class RecoveryNode(py_trees.composites.Composite):
                     yield self
                     return
                 if child.status == Status.RUNNING:
-                    self.running_ticks += 1
-                    if self.running_ticks >= self.settle_ticks:
-                        self.in_a_row = 0  # the plan runs again: progress
+                    if self.anchor is not None and self._moved() >= self.settle_distance:
+                        self.in_a_row, self.anchor = 0, None  # progress
                     self._report(f"following; {self.in_a_row} recoveries in a row")
                     self.status = Status.RUNNING
                     yield self
@@ -81,7 +82,7 @@ class RecoveryNode(py_trees.composites.Composite):
                     self.stop(Status.FAILURE)
                     yield self
                     return
-                self.recovering, self.running_ticks = True, 0
+                self.recovering = True
                 continue  # the recoveries, in this same tick
             if child.status == Status.RUNNING:
                 self._report(f"recovering ({self.in_a_row + 1} of at most {self.retries})")
@@ -94,11 +95,17 @@ class RecoveryNode(py_trees.composites.Composite):
                 yield self
                 return
             self.in_a_row += 1
+            self.anchor = self.position()
             self.recovering = False
             self._report(f"recovered; {self.in_a_row} recoveries in a row")
             self.status = Status.RUNNING  # the plan again on the next tick (re-ticked at once)
             yield self
             return
+
+    def _moved(self) -> float:
+        assert self.anchor is not None
+        x, y = self.position()
+        return float(np.hypot(x - self.anchor[0], y - self.anchor[1]))
 
     def _report(self, message: str) -> None:
         self.feedback_message = message
@@ -369,3 +376,16 @@ def recovery_tree(ns: str) -> py_trees.behaviour.Behaviour:
             ),
         ],
     )
+
+
+def robot_position(ns: str) -> Callable[[], tuple[float, float]]:
+    """Where the mission's robot is (its tracked point), read from the context on ``ns``'s
+    blackboard when asked: what ``RecoveryNode`` measures progress by."""
+    reader = py_trees.blackboard.Client(name="robot position", namespace=ns)
+    reader.register_key("context", access=py_trees.common.Access.READ)
+
+    def position() -> tuple[float, float]:
+        x, y, _ = reader.context.pose
+        return float(x), float(y)
+
+    return position

@@ -39,7 +39,7 @@ from app.executor.behaviours import (
     ShapeGuard,
 )
 from app.executor.chain import ChainShapeGuard, ChainStepBehaviour
-from app.executor.recoveries import RecoveryNode, recovery_tree
+from app.executor.recoveries import RecoveryNode, recovery_tree, robot_position
 from app.missions.spec import MissionSpec
 from domain.navigation import RecoverySettings
 
@@ -67,7 +67,8 @@ def goals_tree(name: str, ns: str, recovery: RecoverySettings) -> py_trees.behav
                 follow,
                 recovery_tree(ns),
                 recovery.retries,
-                recovery.settle_ticks,
+                recovery.settle_distance,
+                robot_position(ns),
             ),
         ],
     )

@@ -134,9 +134,10 @@ class RecoverySettings:
 
     retries: int = 6
     """recoveries in a row, with no progress between them, before the goal is given up"""
-    settle_ticks: int = 8
-    """control ticks the plan must run without failing for the recoveries in a row to count
-    from zero again (progress)"""
+    settle_distance: float = 0.3
+    """metres the robot, following a plan, must get from where the last recovery left it for
+    the recoveries in a row to count from zero again (progress: three back-offs' worth, so
+    backing off a contact and driving into it again is none)"""
     back_off_steps: int = 2
     """short library translations away from a contact, or out of a blocked start"""
     clear_radius: float = 1.0
@@ -148,10 +149,10 @@ class RecoverySettings:
 
     def __post_init__(self) -> None:
         _check_finite(self, "recovery settings")
-        if min(self.retries, self.settle_ticks, self.back_off_steps, self.wait_ticks) < 0:
+        if min(self.retries, self.back_off_steps, self.wait_ticks) < 0:
             raise ValueError("recovery settings: counts must be >= 0")
-        if not self.clear_radius > 0:
-            raise ValueError("recovery settings: clear_radius must be positive")
+        if not (self.clear_radius > 0 and self.settle_distance > 0):
+            raise ValueError("recovery settings: clear_radius and settle_distance must be positive")
 
 
 @dataclass(frozen=True)

@@ -132,6 +132,13 @@ def test_a_commanded_shape_change_is_not_reported_as_a_deformation() -> None:
 # -- the composites -----------------------------------------------------------------------------
 
 
+HERE = (0.0, 0.0)
+
+
+def still() -> tuple[float, float]:
+    return HERE
+
+
 def tick(root: py_trees.behaviour.Behaviour, times: int = 1) -> Status:
     for _ in range(times):
         root.tick_once()
@@ -143,29 +150,41 @@ def test_the_recovery_node_recovers_then_follows_again() -> None:
     pipeline = py_trees.behaviours.StatusQueue(
         "follow", [Status.FAILURE, Status.RUNNING, Status.RUNNING], eventually=Status.SUCCESS
     )
-    root = RecoveryNode("with recovery", pipeline, Succeeds("recover"), retries=2, settle_ticks=8)
+    root = RecoveryNode("with recovery", pipeline, Succeeds("recover"), 2, 0.3, still)
     assert tick(root) == Status.RUNNING and "recovered" in root.feedback_message
     assert tick(root) == Status.RUNNING and root.feedback_message.startswith("following")
     assert tick(root, 2) == Status.SUCCESS
 
 
 def test_the_recovery_node_gives_up_after_its_retries() -> None:
-    root = RecoveryNode("with recovery", Fails("follow"), Succeeds("recover"), 3, 8)
+    root = RecoveryNode("with recovery", Fails("follow"), Succeeds("recover"), 3, 0.3, still)
     statuses = [tick(root) for _ in range(4)]
     assert statuses == [Status.RUNNING] * 3 + [Status.FAILURE]
     assert root.feedback_message == "gave up after 3 recoveries in a row"
 
 
-def test_recoveries_count_afresh_after_the_plan_has_run_a_while() -> None:
-    """Progress between recoveries (the plan ran ``settle_ticks`` ticks): never gives up."""
+def test_recoveries_count_afresh_once_the_robot_got_somewhere() -> None:
+    """Following the plan between recoveries, the robot gets ``settle_distance`` from where the
+    last recovery left it each time: progress, so it never gives up; the same plan failing
+    where it stands (backing off and driving into the same contact again) gives up."""
     pattern = [Status.FAILURE, Status.RUNNING, Status.RUNNING] * 6
+    at = [0.0]
+
+    def moving() -> tuple[float, float]:
+        at[0] += 0.2  # every look: a little farther along
+        return (at[0], 0.0)
+
     pipeline = py_trees.behaviours.StatusQueue("follow", pattern, eventually=Status.RUNNING)
-    root = RecoveryNode("with recovery", pipeline, Succeeds("recover"), 2, settle_ticks=2)
+    root = RecoveryNode("with recovery", pipeline, Succeeds("recover"), 2, 0.3, moving)
     assert all(tick(root) == Status.RUNNING for _ in range(len(pattern)))
+    pipeline = py_trees.behaviours.StatusQueue("follow", pattern, eventually=Status.RUNNING)
+    root = RecoveryNode("with recovery", pipeline, Succeeds("recover"), 2, 0.3, still)
+    seen = [(tick(root), root.feedback_message) for _ in range(len(pattern))]
+    assert seen[6] == (Status.FAILURE, "gave up after 2 recoveries in a row")  # the third failure
 
 
 def test_the_recovery_node_fails_when_no_recovery_applies() -> None:
-    root = RecoveryNode("with recovery", Fails("follow"), Fails("recover"), 3, 8)
+    root = RecoveryNode("with recovery", Fails("follow"), Fails("recover"), 3, 0.3, still)
     assert tick(root) == Status.FAILURE and root.feedback_message == "no recovery applies"
 
 
