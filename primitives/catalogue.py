@@ -1,5 +1,5 @@
 """What the bundled library holds: every shape × the eight Fig. 6 goals, with Table 2 labels,
-and the lattice primitives (short translations and turns in place) of every fixed shape."""
+and the lattice primitives (short translations and turns in place) of every shape."""
 
 from __future__ import annotations
 

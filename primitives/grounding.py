@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from primitives.library import Primitive
-from sim.controls import GAIT_OMEGA, Control, FixedShape, PeriodicGait
+from sim.controls import GAIT_CYCLE, Control, FixedShape, PeriodicGait
 from sim.robot import Array
 
 TICK = 0.25  # model seconds: durations are whole control ticks
@@ -62,7 +62,7 @@ class Grounded:
         """The control of the move started at model time ``t0`` (a gait's clock)."""
         if self.phases is None:
             return FixedShape.of(self.theta, self.joints)
-        t_end = t0 + self.cycles * 2 * math.pi / GAIT_OMEGA
+        t_end = t0 + self.cycles * GAIT_CYCLE
         return PeriodicGait.of(self.theta, self.phases, t0=t0, t_end=t_end)
 
     def to_dict(self) -> dict[str, object]:
@@ -71,6 +71,12 @@ class Grounded:
             "primitives": list(self.primitives),
             "duration": self.duration,
         }
+
+
+def gait_duration(cycles: int) -> float:
+    """Whole control ticks covering ``cycles`` gait cycles (the last tick holds the start
+    shape for what is left of it)."""
+    return math.ceil(cycles * GAIT_CYCLE / TICK - 1e-9) * TICK
 
 
 def _exp(xi: Array) -> Array:
@@ -135,8 +141,7 @@ def ground(
     peak = float(np.max(np.abs(theta))) if theta.size else 0.0
     if peak > MAX_SPEED and cycles:  # the same motion, slower: in more whole gait cycles
         more = math.ceil(cycles * peak / MAX_SPEED - 1e-9)
-        theta, cycles = theta * (cycles / more), more
-        duration = math.ceil(more * 2 * math.pi / GAIT_OMEGA / TICK - 1e-9) * TICK
+        theta, cycles, duration = theta * (cycles / more), more, gait_duration(more)
     elif peak > MAX_SPEED:  # the same motion, slower: stretch the duration to whole ticks
         stretched = math.ceil(duration * peak / MAX_SPEED / TICK - 1e-9) * TICK
         theta, duration = theta * (duration / stretched), stretched

@@ -22,17 +22,19 @@ import dataclasses
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from primitives.catalogue import PrimitiveSpec
+from primitives.grounding import gait_duration
 from primitives.learners import CMAES, PI2CMA, Learner, LearningResult, StopRule, make_learner
 from primitives.library import Primitive, RolloutSettings
 from primitives.params import ParameterSpace
 from primitives.pose_task import LATTICE_DT, PoseTask, reference_motion
 from primitives.shapes import shape_named
-from sim.controls import GAIT_OMEGA, Control, PeriodicGait
+from sim.controls import GAIT_CYCLE, Control, PeriodicGait
 from sim.robot import DEFAULT_GEOMETRY, Array, body_twist, head_tip, joint_positions, rotate
 from sim.rollout import RolloutConfig, rollout
 
@@ -46,7 +48,6 @@ REFINE_SIGMA = 0.02  # exploration of the refinement: the retimed θ is already 
 SWEEP_STEP = 0.02  # m: no body point moves further between two swept poses
 SWEEP_TURN = math.radians(2.0)  # nor does the heading turn further
 MAX_ATTEMPTS = 4
-GAIT_CYCLE = 2 * math.pi / GAIT_OMEGA  # model s of one gait cycle (10.47)
 
 
 def nominal_duration(target: tuple[float, float, float]) -> float:
@@ -141,29 +142,20 @@ def learn_lattice(spec: PrimitiveSpec, learner_name: str, seed: int, stop: StopR
         results.append(_learn(quiet(learner), task, seed, stop, theta))
         theta, cost = np.asarray(results[-1].params), results[-1].cost
     states = rollout(space.control(theta), config=task.config).states[0]
-    end = states[-1, :3]
-    return Primitive(
-        id=spec.id,
-        label=None,
-        shape=spec.shape,
+    settings = {**first.settings, "nominal_duration": slow, "refined": len(results) > 1}
+    kept = sweep_indices(states[:, :3], space.joints)
+    timing = RolloutSettings(duration=duration, dt=LATTICE_DT)
+    return _record(
+        spec,
+        theta,
+        cost,
+        results,
+        settings,
+        states,
+        kept,
+        rollout=timing,
         space="U1",
-        theta=tuple(float(v) for v in theta),  # type: ignore[arg-type]
         joints=space.joints,
-        goal=spec.goal,
-        end=(float(end[0]), float(end[1])),
-        cost=cost,
-        learner=first.learner,
-        settings={**first.settings, "nominal_duration": slow, "refined": len(results) > 1},
-        seed=first.seed,
-        updates=sum(r.updates for r in results),
-        rollouts=sum(r.rollouts for r in results),
-        curve=[round(c, 6) for r in results for c in r.curve],
-        rollout=RolloutSettings(duration=duration, dt=LATTICE_DT),
-        family="lattice",
-        reference="centroid",
-        turn=spec.turn,
-        end_pose=(float(end[0]), float(end[1]), float(end[2])),
-        swept=[(float(p[0]), float(p[1]), float(p[2])) for p in sweep(states[:, :3], space.joints)],
     )
 
 
@@ -202,38 +194,63 @@ def learn_gait_lattice(
     if phases is None:
         raise ValueError(f"{spec.id}: shape {spec.shape!r} has no lattice gait phases")
     cycles = gait_cycles(target)
-    duration = math.ceil(cycles * GAIT_CYCLE / TICK - 1e-9) * TICK
     space = GaitSpace("U3", speed_limit=SPEED_TARGET, phases=phases, gait_end=cycles * GAIT_CYCLE)
-    task = PoseTask(target, space, config=RolloutConfig(duration, LATTICE_DT))
+    task = PoseTask(target, space, config=RolloutConfig(gait_duration(cycles), LATTICE_DT))
     result = _learn(make_learner(learner_name), task, seed, stop)
     theta = np.asarray(result.params, dtype=float)
     states = rollout(space.control(theta), config=task.config).states[0]
-    end = states[-1, :3]
     kept = sweep_indices(states[:, :3], states[:, 3:6])
+    return _record(
+        spec,
+        theta,
+        result.cost,
+        [result],
+        {**result.settings, "gait_cycles": cycles},
+        states,
+        kept,
+        rollout=RolloutSettings(duration=task.config.duration, dt=LATTICE_DT),
+        space="U3",
+        phases=phases,
+        cycles=cycles,
+        swept_joints=[(float(j[0]), float(j[1]), float(j[2])) for j in states[kept, 3:6]],
+    )
+
+
+def _record(
+    spec: PrimitiveSpec,
+    theta: Array,
+    cost: float,
+    results: Sequence[LearningResult],
+    settings: dict[str, Any],
+    states: Array,
+    kept: Sequence[int],
+    **body: Any,
+) -> Primitive:
+    """The entry of a lattice primitive learned by ``results`` (the first's learner and seed
+    name it), from the rollout ``states`` of its parameters ``theta``: where it lands, the
+    ``kept`` states as its swept poses; ``body``: its rollout, space and shape fields."""
+    end = states[-1, :3]
+    first = results[0]
     return Primitive(
         id=spec.id,
         label=None,
         shape=spec.shape,
-        space="U3",
         theta=tuple(float(v) for v in theta),  # type: ignore[arg-type]
-        phases=phases,
         goal=spec.goal,
         end=(float(end[0]), float(end[1])),
-        cost=result.cost,
-        learner=result.learner,
-        settings={**result.settings, "gait_cycles": cycles},
-        seed=result.seed,
-        updates=result.updates,
-        rollouts=result.rollouts,
-        curve=[round(c, 6) for c in result.curve],
-        rollout=RolloutSettings(duration=duration, dt=LATTICE_DT),
+        cost=cost,
+        learner=first.learner,
+        settings=settings,
+        seed=first.seed,
+        updates=sum(r.updates for r in results),
+        rollouts=sum(r.rollouts for r in results),
+        curve=[round(c, 6) for r in results for c in r.curve],
         family="lattice",
         reference="centroid",
         turn=spec.turn,
         end_pose=(float(end[0]), float(end[1]), float(end[2])),
         swept=[(float(p[0]), float(p[1]), float(p[2])) for p in states[kept, :3]],
-        cycles=cycles,
-        swept_joints=[(float(j[0]), float(j[1]), float(j[2])) for j in states[kept, 3:6]],
+        **body,
     )
 
 

@@ -24,7 +24,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from primitives.params import Kind, ParameterSpace
 from primitives.shapes import SHAPES
-from sim.controls import GAIT_AMPLITUDE, GAIT_OMEGA, Control, PeriodicGait
+from sim.controls import GAIT_AMPLITUDE, GAIT_CYCLE, Control, PeriodicGait
 from sim.rollout import JointMode, RolloutConfig
 
 if TYPE_CHECKING:
@@ -141,7 +141,7 @@ class Primitive(Frozen):
     def gait_time(self) -> float:
         """Model seconds of a periodic lattice entry's whole gait cycles (∞: the gait never
         stops, as the paper's periodic primitives run)."""
-        return self.cycles * 2 * math.pi / GAIT_OMEGA if self.cycles else math.inf
+        return self.cycles * GAIT_CYCLE if self.cycles else math.inf
 
     @property
     def rest_joints(self) -> tuple[float, float, float]:

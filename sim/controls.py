@@ -17,6 +17,7 @@ from sim.robot import DEFAULT_GEOMETRY, N_JOINTS, N_UNITS, Array, RobotGeometry
 
 GAIT_AMPLITUDE = 0.2  # rad, paper eq. 13
 GAIT_OMEGA = 0.6  # rad per model second
+GAIT_CYCLE = 2 * math.pi / GAIT_OMEGA  # model seconds of one cycle of the paper's gait (10.47)
 
 
 def as_batch(value: ArrayLike, width: int, name: str) -> Array:
