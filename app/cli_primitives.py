@@ -144,8 +144,8 @@ def library_build(
     family: Annotated[
         str,
         typer.Option(
-            help="paper (Fig. 6 or --grid), lattice (short translations and turns of fixed "
-            "shapes) or both"
+            help="paper (Fig. 6 or --grid), lattice (short translations and turns of each "
+            "shape) or both"
         ),
     ] = "both",
     shapes: Annotated[str, typer.Option(help="comma-separated shapes")] = ",".join(SHAPES),

@@ -1,5 +1,6 @@
-"""Every mission of examples/, examples/hard/ and examples/untuned/, as fast as possible, checked
-against what it expects (bench/README.md, targets: accuracy, contacts, model time / wall time).
+"""Every mission of examples/, examples/hard/, examples/untuned/ and examples/periodic/ (the
+periodic gait's), as fast as possible, checked against what it expects (bench/README.md,
+targets: accuracy, contacts, model time / wall time).
 
     python -m bench.missions [--only PATTERN] [--set DIR] [--noise SIGMA] [--repeat N] [--workers 2]
         [--cap 120]
@@ -36,6 +37,7 @@ SETS = {
     "examples": ROOT / "examples",
     "hard": ROOT / "examples" / "hard",
     "untuned": ROOT / "examples" / "untuned",
+    "periodic": ROOT / "examples" / "periodic",
 }
 GRACE = 30.0  # wall seconds past the cap before the parent stops waiting for a stuck worker
 J = TypeVar("J")

@@ -1,5 +1,5 @@
 """What the bundled library holds: every shape × the eight Fig. 6 goals, with Table 2 labels,
-and the lattice primitives (short translations and turns in place) of every fixed shape."""
+and the lattice primitives (short translations and turns in place) of every shape."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from primitives.params import ParameterSpace
-from primitives.shapes import FIXED_SHAPES, SHAPES
+from primitives.shapes import SHAPES
 
 Family = Literal["paper", "lattice"]
 FAMILIES: tuple[Family, ...] = ("paper", "lattice")
@@ -103,13 +103,12 @@ def lattice_id(shape: str, distance: float = 0.0, angle: int = 0, turn_deg: floa
     return f"lat-{shape}-t{round(distance * 100):03d}-a{angle:03d}"
 
 
-def lattice_specs(shapes: tuple[str, ...] = FIXED_SHAPES) -> list[PrimitiveSpec]:
-    """Per fixed shape (periodic ones are skipped): translations of the centroid at body angles
-    0°, 45°, …, 315° × 0.05 m and 0.25 m, then turns in place by ±5.625°, ±22.5°, ±45°."""
+def lattice_specs(shapes: tuple[str, ...] = tuple(SHAPES)) -> list[PrimitiveSpec]:
+    """Per shape: translations of the centroid at body angles 0°, 45°, …, 315° × 0.05 m and
+    0.25 m, then turns in place by ±5.625°, ±22.5°, ±45° (the periodic gait's as whole gait
+    cycles from its lattice phases, primitives/lattice.py)."""
     specs = []
     for shape in shapes:
-        if SHAPES[shape].periodic:
-            continue
         for d in LATTICE_DISTANCES:
             for a in LATTICE_ANGLES:
                 rad = math.radians(a)

@@ -8,6 +8,11 @@ recorded motions (in the Lie algebra of SE(2), exact while the weights keep the 
 constant). A correction is the planned primitive plus small library translations and a small
 library turn, weighted so their recorded motions add up to the offset still to go: the same
 kind of blend as the paper's bilinear interpolation (eqs. 16-18), with f(O) = 0.
+
+A periodic shape's primitives share their phases and run whole gait cycles: the body-frame
+twist at every instant of the cycle is linear in the screw speeds, so the same blend holds
+(to first order in the heading's change), and a blend too fast for the screws is stretched by
+whole cycles, the gait's start shape kept at both ends.
 """
 
 from __future__ import annotations
@@ -20,6 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from primitives.library import Primitive
+from sim.controls import GAIT_CYCLE, Control, FixedShape, PeriodicGait
 from sim.robot import Array
 
 TICK = 0.25  # model seconds: durations are whole control ticks
@@ -39,7 +45,9 @@ def twist_of(end_pose: Sequence[float] | Array) -> Array:
 
 @dataclass(frozen=True)
 class Grounded:
-    """What the executor runs for one move: screw speeds with joints held, for a duration."""
+    """What the executor runs for one move: screw speeds with joints held (or a gait of
+    ``cycles`` whole cycles from ``phases``, starting and ending in ``joints``), for a
+    duration."""
 
     theta: Array
     joints: Array
@@ -47,6 +55,15 @@ class Grounded:
     method: str  # "library" or "interpolated"
     primitives: tuple[str, ...]
     expected: Array  # start-frame end pose the library data predict
+    phases: Array | None = None
+    cycles: int = 0
+
+    def control(self, t0: float = 0.0) -> Control:
+        """The control of the move started at model time ``t0`` (a gait's clock)."""
+        if self.phases is None:
+            return FixedShape.of(self.theta, self.joints)
+        t_end = t0 + self.cycles * GAIT_CYCLE
+        return PeriodicGait.of(self.theta, self.phases, t0=t0, t_end=t_end)
 
     def to_dict(self) -> dict[str, object]:
         return {
@@ -54,6 +71,12 @@ class Grounded:
             "primitives": list(self.primitives),
             "duration": self.duration,
         }
+
+
+def gait_duration(cycles: int) -> float:
+    """Whole control ticks covering ``cycles`` gait cycles (the last tick holds the start
+    shape for what is left of it)."""
+    return math.ceil(cycles * GAIT_CYCLE / TICK - 1e-9) * TICK
 
 
 def _exp(xi: Array) -> Array:
@@ -85,20 +108,26 @@ def ground(
     ``basis`` alone (a final approach to a goal).
     """
     want = np.asarray(offset, dtype=float)
+    if planned is None and not basis:
+        raise ValueError("basis: no library primitives to blend")
+    first = planned if planned is not None else basis[0]
+    joints = np.asarray(first.rest_joints, dtype=float)
+    phases = None if first.phases is None else np.asarray(first.phases, dtype=float)
+    cycles = first.cycles
     if planned is not None:
-        assert planned.end_pose is not None and planned.joints is not None
+        assert planned.end_pose is not None and (planned.joints or planned.cycles)
         duration = float(planned.rollout.duration)
         theta = np.asarray(planned.theta, dtype=float)
-        joints = np.asarray(planned.joints, dtype=float)
         base = twist_of(planned.end_pose)
         used = [planned.id]
         miss = want - np.asarray(planned.end_pose)
         if math.hypot(miss[0], miss[1]) <= LIBRARY_MATCH[0] and abs(miss[2]) <= LIBRARY_MATCH[1]:
-            return Grounded(theta, joints, duration, "library", (planned.id,), _exp(base))
+            return Grounded(
+                theta, joints, duration, "library", (planned.id,), _exp(base), phases, cycles
+            )
     else:
         duration = max(float(e.rollout.duration) for e in basis)
         theta = np.zeros(4)
-        joints = np.asarray(basis[0].joints or (0.0, 0.0, 0.0), dtype=float)
         base, used = np.zeros(3), []
     delta = twist_of(want) - base
     # Each basis primitive b adds w·ξ_b when run at w·T_b/T of its speeds over the duration T.
@@ -110,10 +139,13 @@ def ground(
             used.append(e.id)
     expected = _exp(base + xis.T @ weights)
     peak = float(np.max(np.abs(theta))) if theta.size else 0.0
-    if peak > MAX_SPEED:  # the same motion, slower: stretch the duration to whole ticks
+    if peak > MAX_SPEED and cycles:  # the same motion, slower: in more whole gait cycles
+        more = math.ceil(cycles * peak / MAX_SPEED - 1e-9)
+        theta, cycles, duration = theta * (cycles / more), more, gait_duration(more)
+    elif peak > MAX_SPEED:  # the same motion, slower: stretch the duration to whole ticks
         stretched = math.ceil(duration * peak / MAX_SPEED / TICK - 1e-9) * TICK
         theta, duration = theta * (duration / stretched), stretched
-    return Grounded(theta, joints, duration, "interpolated", tuple(used), expected)
+    return Grounded(theta, joints, duration, "interpolated", tuple(used), expected, phases, cycles)
 
 
 def _weights(xis: Array, delta: Array, is_turn: NDArray[np.bool_]) -> Array:

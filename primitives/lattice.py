@@ -7,6 +7,13 @@ slow nominal duration (|θ| about 0.5, far from the clamps), scaled so that max|
 ``SPEED_TARGET`` with the duration rounded up to the executor's control tick, and, because the
 Euler steps then differ, refined by the same learner at the final duration with a speed cap.
 Its entry stores the rollout of exactly those parameters: ``end_pose`` and the ``swept`` poses.
+
+The periodic gait (U3) has no constant twist, so it takes its own path (``learn_gait_lattice``):
+its phases are the lattice set's (``Shape.phases``), so every motion starts in the same shape
+φ(0) = A sin ϕ, and it runs whole gait cycles (2π/ω = 10.47 model s each), then holds that
+shape to the end of its last control tick (``PeriodicGait.t_end``): it ends where the next one
+starts, and motions compose. Only the four screw speeds are learned, under the speed cap, at
+that final duration. Its ``swept`` poses carry the joints at each (``swept_joints``).
 """
 
 from __future__ import annotations
@@ -14,14 +21,20 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from primitives.catalogue import PrimitiveSpec
+from primitives.grounding import gait_duration
 from primitives.learners import CMAES, PI2CMA, Learner, LearningResult, StopRule, make_learner
 from primitives.library import Primitive, RolloutSettings
+from primitives.params import ParameterSpace
 from primitives.pose_task import LATTICE_DT, PoseTask, reference_motion
+from primitives.shapes import shape_named
+from sim.controls import GAIT_CYCLE, Control, PeriodicGait
 from sim.robot import DEFAULT_GEOMETRY, Array, body_twist, head_tip, joint_positions, rotate
 from sim.rollout import RolloutConfig, rollout
 
@@ -107,9 +120,12 @@ def _learn(
 
 
 def learn_lattice(spec: PrimitiveSpec, learner_name: str, seed: int, stop: StopRule) -> Primitive:
-    """Learn, retime, refine and record one lattice primitive (deterministic for a seed)."""
+    """Learn, retime, refine and record one lattice primitive (deterministic for a seed); a
+    periodic shape's by ``learn_gait_lattice``."""
     target = (spec.goal[0], spec.goal[1], spec.turn)
     space = spec.space()
+    if space.kind == "U3":
+        return learn_gait_lattice(spec, learner_name, seed, stop)
     if space.kind != "U1":  # retiming and trimming rely on a constant twist
         raise ValueError(f"{spec.id}: lattice primitives need a fixed shape, not {spec.shape!r}")
     learner = make_learner(learner_name)
@@ -126,44 +142,137 @@ def learn_lattice(spec: PrimitiveSpec, learner_name: str, seed: int, stop: StopR
         results.append(_learn(quiet(learner), task, seed, stop, theta))
         theta, cost = np.asarray(results[-1].params), results[-1].cost
     states = rollout(space.control(theta), config=task.config).states[0]
+    settings = {**first.settings, "nominal_duration": slow, "refined": len(results) > 1}
+    kept = sweep_indices(states[:, :3], space.joints)
+    timing = RolloutSettings(duration=duration, dt=LATTICE_DT)
+    return _record(
+        spec,
+        theta,
+        cost,
+        results,
+        settings,
+        states,
+        kept,
+        rollout=timing,
+        space="U1",
+        joints=space.joints,
+    )
+
+
+@dataclass(frozen=True)
+class GaitSpace(ParameterSpace):
+    """U3 with the phases fixed (a lattice set's) and the gait stopped after ``gait_end``
+    model seconds: the four screw speeds are the parameters."""
+
+    phases: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    gait_end: float = math.inf
+
+    @property
+    def size(self) -> int:
+        return 4
+
+    def control(self, params: ArrayLike) -> Control:
+        p = np.atleast_2d(np.asarray(params, dtype=float))
+        if p.shape[-1] != 4:
+            raise ValueError(f"params: expected 4 screw speeds, got {p.shape[-1]}")
+        return PeriodicGait.of(p, self.phases, t_end=self.gait_end)
+
+
+def gait_cycles(target: tuple[float, float, float]) -> int:
+    """Whole gait cycles a target takes: as many as its slow learning horizon needs (one for
+    every lattice target of the catalogue)."""
+    return max(1, math.ceil(nominal_duration(target) / GAIT_CYCLE - 1e-9))
+
+
+def learn_gait_lattice(
+    spec: PrimitiveSpec, learner_name: str, seed: int, stop: StopRule
+) -> Primitive:
+    """Learn and record one lattice primitive of a periodic shape: the screw speeds that carry
+    the centroid to the target in whole gait cycles from the shape's lattice phases."""
+    target = (spec.goal[0], spec.goal[1], spec.turn)
+    phases = shape_named(spec.shape).phases
+    if phases is None:
+        raise ValueError(f"{spec.id}: shape {spec.shape!r} has no lattice gait phases")
+    cycles = gait_cycles(target)
+    space = GaitSpace("U3", speed_limit=SPEED_TARGET, phases=phases, gait_end=cycles * GAIT_CYCLE)
+    task = PoseTask(target, space, config=RolloutConfig(gait_duration(cycles), LATTICE_DT))
+    result = _learn(make_learner(learner_name), task, seed, stop)
+    theta = np.asarray(result.params, dtype=float)
+    states = rollout(space.control(theta), config=task.config).states[0]
+    kept = sweep_indices(states[:, :3], states[:, 3:6])
+    return _record(
+        spec,
+        theta,
+        result.cost,
+        [result],
+        {**result.settings, "gait_cycles": cycles},
+        states,
+        kept,
+        rollout=RolloutSettings(duration=task.config.duration, dt=LATTICE_DT),
+        space="U3",
+        phases=phases,
+        cycles=cycles,
+        swept_joints=[(float(j[0]), float(j[1]), float(j[2])) for j in states[kept, 3:6]],
+    )
+
+
+def _record(
+    spec: PrimitiveSpec,
+    theta: Array,
+    cost: float,
+    results: Sequence[LearningResult],
+    settings: dict[str, Any],
+    states: Array,
+    kept: Sequence[int],
+    **body: Any,
+) -> Primitive:
+    """The entry of a lattice primitive learned by ``results`` (the first's learner and seed
+    name it), from the rollout ``states`` of its parameters ``theta``: where it lands, the
+    ``kept`` states as its swept poses; ``body``: its rollout, space and shape fields."""
     end = states[-1, :3]
+    first = results[0]
     return Primitive(
         id=spec.id,
         label=None,
         shape=spec.shape,
-        space="U1",
         theta=tuple(float(v) for v in theta),  # type: ignore[arg-type]
-        joints=space.joints,
         goal=spec.goal,
         end=(float(end[0]), float(end[1])),
         cost=cost,
         learner=first.learner,
-        settings={**first.settings, "nominal_duration": slow, "refined": len(results) > 1},
+        settings=settings,
         seed=first.seed,
         updates=sum(r.updates for r in results),
         rollouts=sum(r.rollouts for r in results),
         curve=[round(c, 6) for r in results for c in r.curve],
-        rollout=RolloutSettings(duration=duration, dt=LATTICE_DT),
         family="lattice",
         reference="centroid",
         turn=spec.turn,
         end_pose=(float(end[0]), float(end[1]), float(end[2])),
-        swept=[(float(p[0]), float(p[1]), float(p[2])) for p in sweep(states[:, :3], space.joints)],
+        swept=[(float(p[0]), float(p[1]), float(p[2])) for p in states[kept, :3]],
+        **body,
     )
 
 
-def body_points(poses: Array, joints: Sequence[float]) -> Array:
-    """The footprint's segment ends (head tip, tracked point, joints, tail) ``[N, 6, 2]``."""
+def body_points(poses: Array, joints: ArrayLike) -> Array:
+    """The footprint's segment ends (head tip, tracked point, joints, tail) ``[N, 6, 2]`` for
+    one shape ``[3]`` or one per pose ``[N, 3]``."""
     phi = np.broadcast_to(np.asarray(joints, dtype=float), (len(poses), 3))
     tip = head_tip(poses, DEFAULT_GEOMETRY)[:, None, :]
     return np.concatenate([tip, joint_positions(poses, phi)], axis=1)
 
 
-def sweep(poses: Array, joints: Sequence[float]) -> Array:
-    """A subset of ``poses`` ``[N, 3]`` (first and last kept) such that between consecutive
-    kept poses no body point moves more than ``SWEEP_STEP`` and ψ turns at most ``SWEEP_TURN``
-    (unless one Euler step alone does). The motion is rigid, so the largest displacement of any
-    body point lies at a segment end of the footprint.
+def sweep(poses: Array, joints: ArrayLike) -> Array:
+    """The poses ``sweep_indices`` keeps, ``[M, 3]``."""
+    return np.asarray(poses[sweep_indices(poses, joints)])
+
+
+def sweep_indices(poses: Array, joints: ArrayLike) -> list[int]:
+    """Indices of a subset of ``poses`` ``[N, 3]`` (first and last kept) such that between
+    consecutive kept poses no body point moves more than ``SWEEP_STEP`` and ψ turns at most
+    ``SWEEP_TURN`` (unless one Euler step alone does); ``joints``: the shape ``[3]``, or each
+    pose's ``[N, 3]``. Each segment of the body stays straight, so the largest displacement
+    of any body point lies at a segment end of the footprint.
     """
     points = body_points(poses, joints)
 
@@ -180,7 +289,7 @@ def sweep(poses: Array, joints: Sequence[float]) -> Array:
                 kept.append(i)
     if kept[-1] != len(poses) - 1:
         kept.append(len(poses) - 1)
-    return np.asarray(poses[kept])
+    return kept
 
 
 # -- helpers for planners: everything from the entry ---------------------------------------
@@ -201,7 +310,7 @@ def centroid_motion(entry: Primitive) -> Array:
     """Where the entry really moves its centroid (start frame) and its Δψ, ``[3]``."""
     if entry.end_pose is None:
         raise ValueError(f"{entry.id}: no end_pose (not a lattice primitive)")
-    joints = np.asarray(entry.joints or (0.0, 0.0, 0.0), dtype=float)
+    joints = np.asarray(entry.rest_joints, dtype=float)
     end = np.concatenate([np.asarray(entry.end_pose), joints])[None, :]
     out: Array = reference_motion(end, joints[None, :], "centroid")[0]
     return out

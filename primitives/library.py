@@ -2,8 +2,9 @@
 
 Two families of entries: ``paper`` primitives (one 100 s rollout to a Fig. 6 goal of the tracked
 point) and ``lattice`` primitives (short centroid translations and turns in place, for planners
-that chain them; primitives/lattice.py). Format version 2 added the lattice fields; version 1
-files still load (their entries are all ``paper``).
+that chain them; primitives/lattice.py). Format version 2 added the lattice fields, version 3
+the periodic gait's lattice fields (``cycles``, ``swept_joints``); older files still load
+(version 1 entries are all ``paper``).
 
 A file is read whole and validated before a ``Library`` exists: a corrupt, truncated, foreign
 or newer file raises ``LibraryError`` with the reason; there is never a half-loaded library.
@@ -23,14 +24,14 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from primitives.params import Kind, ParameterSpace
 from primitives.shapes import SHAPES
-from sim.controls import Control
+from sim.controls import GAIT_AMPLITUDE, GAIT_CYCLE, Control, PeriodicGait
 from sim.rollout import JointMode, RolloutConfig
 
 if TYPE_CHECKING:
     from primitives.coverage import Coverage
 
 FORMAT: Literal["screwsnake-primitive-library"] = "screwsnake-primitive-library"
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 BUNDLED = "default_library.json"
 
 Finite = Annotated[float, Field(allow_inf_nan=False)]
@@ -66,6 +67,9 @@ class Primitive(Frozen):
     centroid) and ``turn`` the target Δψ (rad); ``end_pose`` is where the tracked point really
     lands (start frame, dx, dy, dψ) and ``swept`` the tracked-point poses along the way (start
     and end included), both from one rollout of the stored parameters for ``rollout.duration``.
+    A periodic lattice entry runs ``cycles`` whole gait cycles from its phases, then holds its
+    start shape to the end of its last control tick, and ``swept_joints`` holds the joints at
+    each swept pose (a fixed shape's are its ``joints`` throughout: the list stays empty).
     """
 
     id: Annotated[str, Field(min_length=1, max_length=64, pattern=r"^[A-Za-z0-9_.-]+$")]
@@ -90,6 +94,8 @@ class Primitive(Frozen):
     turn: Finite = 0.0
     end_pose: Vec3 | None = None
     swept: list[Vec3] = Field(default_factory=list)
+    cycles: Annotated[int, Field(ge=0)] = 0
+    swept_joints: list[Vec3] = Field(default_factory=list)
 
     @model_validator(mode="after")
     def _consistent(self) -> Primitive:
@@ -101,6 +107,10 @@ class Primitive(Frozen):
             )
         if self.family == "lattice" and (self.end_pose is None or len(self.swept) < 2):
             raise ValueError("a lattice primitive has an end_pose and at least two swept poses")
+        if self.swept_joints and len(self.swept_joints) != len(self.swept):
+            raise ValueError("swept_joints: one joint vector per swept pose")
+        if self.cycles and not (self.periodic and self.family == "lattice"):
+            raise ValueError("cycles: only a periodic lattice primitive runs whole gait cycles")
         return self
 
     @property
@@ -127,8 +137,28 @@ class Primitive(Frozen):
         """U = [θ̇1..4, φ1..3] (eq. 15), or [θ̇, ϕ] for a periodic primitive."""
         return np.array([*self.theta, *(self.phases or self.joints or (0.0, 0.0, 0.0))])
 
-    def control(self) -> Control:
-        return ParameterSpace("U3" if self.periodic else "U2").control(self.params())
+    @property
+    def gait_time(self) -> float:
+        """Model seconds of a periodic lattice entry's whole gait cycles (∞: the gait never
+        stops, as the paper's periodic primitives run)."""
+        return self.cycles * GAIT_CYCLE if self.cycles else math.inf
+
+    @property
+    def rest_joints(self) -> tuple[float, float, float]:
+        """The joints at the start (and, for whole gait cycles, the end): the held shape, or
+        the gait's φ(0) = A sin ϕ."""
+        if self.phases is not None:
+            a, b, c = (GAIT_AMPLITUDE * math.sin(p) for p in self.phases)
+            return (a, b, c)
+        return self.joints or (0.0, 0.0, 0.0)
+
+    def control(self, t0: float = 0.0) -> Control:
+        """The entry's control, its gait started at model time ``t0``."""
+        if self.periodic:
+            return PeriodicGait.of(
+                self.theta, self.phases or (0.0, 0.0, 0.0), t0=t0, t_end=t0 + self.gait_time
+            )
+        return ParameterSpace("U2").control(self.params())
 
 
 class LibraryFile(Frozen):

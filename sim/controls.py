@@ -17,6 +17,7 @@ from sim.robot import DEFAULT_GEOMETRY, N_JOINTS, N_UNITS, Array, RobotGeometry
 
 GAIT_AMPLITUDE = 0.2  # rad, paper eq. 13
 GAIT_OMEGA = 0.6  # rad per model second
+GAIT_CYCLE = 2 * math.pi / GAIT_OMEGA  # model seconds of one cycle of the paper's gait (10.47)
 
 
 def as_batch(value: ArrayLike, width: int, name: str) -> Array:
@@ -119,13 +120,18 @@ class FixedShape:
 
 @dataclass(frozen=True)
 class PeriodicGait:
-    """Screw speeds ``[K, 4]`` and joint phases ``[K, 3]``: φ_i(t) = A sin(ω (t − t0) + ϕ_i) (U3)."""
+    """Screw speeds ``[K, 4]`` and joint phases ``[K, 3]``: φ_i(t) = A sin(ω (t − t0) + ϕ_i) (U3).
+
+    With a finite ``t_end`` the gait stops there and the joints hold φ(t_end): a motion of
+    whole gait cycles (t_end − t0 a multiple of 2π/ω) ends in its start shape even when its
+    duration is rounded up to whole control ticks, so the next one starts without a jump."""
 
     theta: Array
     phases: Array
     amplitude: float = GAIT_AMPLITUDE
     omega: float = GAIT_OMEGA
     t0: float = 0.0
+    t_end: float = math.inf
 
     @classmethod
     def of(
@@ -136,6 +142,7 @@ class PeriodicGait:
         omega: float = GAIT_OMEGA,
         t0: float = 0.0,
         geometry: RobotGeometry = DEFAULT_GEOMETRY,
+        t_end: float = math.inf,
     ) -> PeriodicGait:
         th = as_batch(theta, N_UNITS, "theta")
         ph = as_batch(phases, N_JOINTS, "phases")
@@ -148,21 +155,25 @@ class PeriodicGait:
                 raise ValueError(f"{name}: must be finite")
         if not 0.0 <= amplitude <= geometry.max_joint_angle:
             raise ValueError(f"amplitude: must lie within [0, {geometry.max_joint_angle:.4f}]")
+        if math.isnan(t_end) or t_end < t0:
+            raise ValueError("t_end: must be at least t0 (or infinite: the gait never stops)")
         check_screw_speeds(th, geometry)
-        return cls(th, ph, float(amplitude), float(omega), float(t0))
+        return cls(th, ph, float(amplitude), float(omega), float(t0), float(t_end))
 
     @property
     def size(self) -> int:
         return int(self.theta.shape[0])
 
     def _arg(self, t: Array) -> Array:
-        return self.omega * (t[None, :, None] - self.t0) + self.phases[:, None, :]
+        held = np.minimum(t, self.t_end)
+        return self.omega * (held[None, :, None] - self.t0) + self.phases[:, None, :]
 
     def angles(self, t: Array) -> Array:
         return self.amplitude * np.sin(self._arg(t))
 
     def rates(self, t: Array) -> Array:
-        return self.amplitude * self.omega * np.cos(self._arg(t))
+        moving = (np.asarray(t) < self.t_end)[None, :, None]  # held joints do not move
+        return np.where(moving, self.amplitude * self.omega * np.cos(self._arg(t)), 0.0)
 
 
 Control = FixedShape | PeriodicGait
@@ -174,5 +185,10 @@ def take(control: Control, index: int) -> Control:
     if isinstance(control, FixedShape):
         return FixedShape(control.theta[sl], control.joints[sl])
     return PeriodicGait(
-        control.theta[sl], control.phases[sl], control.amplitude, control.omega, control.t0
+        control.theta[sl],
+        control.phases[sl],
+        control.amplitude,
+        control.omega,
+        control.t0,
+        control.t_end,
     )

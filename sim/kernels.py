@@ -190,19 +190,23 @@ def periodic_gait_rollouts(
     amplitude: float,
     omega: float,
     t0: float,
+    t_end: float,
     complete: bool,
     start: Array,
     dt: float,
     geo: Array,
     states: Array,
 ) -> None:
-    """Fill ``states`` ``[K, N+1, 6]`` for gaits φ_j(t) = A sin(ω (t − t0) + ϕ_j): the twist of
-    the shape at t_n (and its joint rates in ``complete`` mode) held over [t_n, t_n+1)."""
+    """Fill ``states`` ``[K, N+1, 6]`` for gaits φ_j(t) = A sin(ω (min(t, t_end) − t0) + ϕ_j):
+    the twist of the shape at t_n (and its joint rates in ``complete`` mode) held over
+    [t_n, t_n+1)."""
     n1 = states.shape[1]
     sin_wt, cos_wt = np.empty(n1), np.empty(n1)
+    moving = np.empty(n1)
     for n in range(n1):  # ω(t − t0) is the same for the whole batch
-        arg = omega * (n * dt - t0)
+        arg = omega * (min(n * dt, t_end) - t0)
         sin_wt[n], cos_wt[n] = math.sin(arg), math.cos(arg)
+        moving[n] = 1.0 if n * dt < t_end else 0.0
     phi, cos_phi, sin_phi, dphi = np.empty(3), np.empty(3), np.empty(3), np.zeros(3)
     cos_ph, sin_ph = np.empty(3), np.empty(3)
     rate = amplitude * omega
@@ -214,7 +218,7 @@ def periodic_gait_rollouts(
             for j in range(3):  # sin and cos of ω(t − t0) + ϕ_j by angle addition
                 phi[j] = amplitude * (sin_wt[n] * cos_ph[j] + cos_wt[n] * sin_ph[j])
                 if complete:
-                    dphi[j] = rate * (cos_wt[n] * cos_ph[j] - sin_wt[n] * sin_ph[j])
+                    dphi[j] = moving[n] * rate * (cos_wt[n] * cos_ph[j] - sin_wt[n] * sin_ph[j])
             row = states[k, n]
             row[0], row[1], row[2] = x, y, psi
             row[3], row[4], row[5] = phi[0], phi[1], phi[2]

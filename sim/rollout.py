@@ -171,6 +171,7 @@ def _compiled_states(
             float(control.amplitude),
             float(control.omega),
             float(control.t0),
+            float(control.t_end),
             config.joint_mode == "complete",
             start,
             float(config.dt),

@@ -34,7 +34,6 @@ from domain.triggers import Recovered
 from primitives.grounding import TICK, Grounded, ground
 from primitives.library import Primitive
 from primitives.shapes import SHAPES
-from sim.controls import FixedShape
 
 
 class RecoveryNode(py_trees.composites.Composite):
@@ -165,6 +164,7 @@ class _Step:
     grounded: Grounded
     left: float
     label: str
+    started: float | None = None  # model time of its first tick (a gait's clock)
 
 
 class Recovery(MissionBehaviour):
@@ -210,10 +210,12 @@ class Recovery(MissionBehaviour):
             self.feedback_message = "done"
             return Status.SUCCESS
         step = self.steps[0]
+        if step.started is None:
+            step.started = ctx.t
         step.left -= TICK
         self.ran += 1
         g = step.grounded
-        ctx.command = FixedShape.of(g.theta, g.joints)
+        ctx.command = g.control(step.started)
         ctx.current_action = f"({self.what} {step.label})"
         ctx.grounding = g.to_dict()
         self.feedback_message = f"{step.label}: {step.left + TICK:.2f} s left"

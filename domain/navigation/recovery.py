@@ -66,13 +66,15 @@ def primitive_clear(
     margin: float,
     deeper: float = 0.0,
 ) -> bool:
-    """Whether running ``entry`` from ``pose`` keeps clear (``sweep_keeps_clear``)."""
+    """Whether running ``entry`` from ``pose`` keeps clear (``sweep_keeps_clear``): the body
+    held in ``joints``, or bending as a gait entry's swept joints say."""
     start = np.asarray(pose, dtype=float)
     ends = [(0.0, 0.0, 0.0), entry.end_pose or (0.0, 0.0, 0.0)]
     swept = np.asarray(entry.swept or ends, dtype=float)
     poses = compose(start[None, :], swept)
-    j = np.asarray(joints, dtype=float)
-    return sweep_keeps_clear(world, start, [(p, j) for p in poses], margin, deeper)
+    held = np.asarray(joints, dtype=float)
+    bent = [np.asarray(j, dtype=float) for j in entry.swept_joints] or [held] * len(poses)
+    return sweep_keeps_clear(world, start, list(zip(poses, bent, strict=True)), margin, deeper)
 
 
 def back_off(
@@ -182,10 +184,12 @@ def reshape_options(
     view: HeadView | None = None,
 ) -> list[str]:
     """The other library shapes the body can change into here (every intermediate body keeps
-    clear) whose lattice the feasibility check lets reach every goal, nearest first."""
+    clear) whose lattice the feasibility check lets reach every goal, nearest first. A
+    periodic gait is no option: its start shape is the straight body's and it sweeps wider,
+    so it reaches nothing the straight body cannot."""
     here = np.asarray(joints, dtype=float)
     others = sorted(
-        (name for name in library.lattice_shapes() if name != shape),
+        (name for name in library.lattice_shapes() if name != shape and not SHAPES[name].periodic),
         key=lambda name: float(np.max(np.abs(np.asarray(SHAPES[name].joints) - here))),
     )
     grid = LatticeGrid(world.bounds, settings)

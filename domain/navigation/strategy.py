@@ -1,11 +1,16 @@
 """The navigation strategy: plans on the primitive lattice and follows the plan primitive by primitive.
 
-Each ``move`` runs one library primitive's parameters for its duration. The robot is never
+Each ``move`` runs one library primitive's parameters for its duration (a periodic body's, its
+gait of whole cycles clocked from the move's first tick). The robot is never
 exactly on the lattice, so a move is grounded from the real pose towards the planned state:
 the primitive as it is when it lands close enough, else the primitive blended with small
 library primitives (``primitives.grounding``). A ``visit`` is a final approach that puts the
 tracked point on the goal, also blended from library primitives. Everything known of a
 primitive comes from its library entry; nothing probes a simulator or inverts the model.
+
+A move of the gait that a replan cut short leaves the body mid-cycle: the next move waits, the
+screws still, while the joints finish the cycle (no jump in the joints, no motion of the body:
+the paper's quasi-static joints move nothing without the screws).
 
 The strategy plans and follows; it never recovers. A failure to plan comes back typed
 (``Replanned.failure``) for the behaviour tree's recoveries to act on.
@@ -32,7 +37,8 @@ from domain.strategy import Command, Replanned, Situation
 from domain.triggers import NoProgress, PathBlocked, ReplanRecord, Trigger
 from primitives.grounding import TICK, Grounded, correction_basis, ground
 from primitives.library import Library
-from sim.controls import FixedShape
+from primitives.shapes import SHAPES
+from sim.controls import PeriodicGait
 from sim.robot import rotate
 
 
@@ -43,6 +49,7 @@ class Running:
     action: PlanAction
     grounded: Grounded
     left: float
+    started: float | None = None  # model time of its first tick (a gait's clock)
 
 
 def held_joints(joints: Sequence[float]) -> tuple[float, float, float]:
@@ -71,10 +78,14 @@ class NavigationStrategy:
         self.repairs = 0  # plans repaired in a row since the last full plan
         self._checked: tuple[int, int] = (-1, -1)  # (world version, plan index) last checked
         self._lookahead = Lookahead(self.settings.follow.lookahead)
+        self._gait: PeriodicGait | None = None  # the last gait move's control (its clock)
 
     # -- the lattice of the current body --------------------------------------------------------
     def table_for(self, shape: str, joints: Sequence[float]) -> MotionTable | None:
-        key = (shape, held_joints(joints))
+        """The table of the body: held joints as sensed, or a gait's start shape (the joints
+        a gait's sensors read move on purpose)."""
+        known = SHAPES.get(shape)
+        key = (shape, held_joints(known.joints if known and known.periodic else joints))
         if key not in self._tables:
             self._tables[key] = motion_table(self.library, shape, key[1], self.settings, self.view)
         return self._tables[key]
@@ -182,6 +193,11 @@ class NavigationStrategy:
         while True:
             if self.running is not None:
                 if self.running.left > 1e-9:
+                    if self.running.started is None:  # its first tick
+                        settle = self._finish_cycle(self.running, situation.t)
+                        if settle is not None:
+                            return settle
+                        self.running.started = situation.t
                     self.running.left -= TICK
                     return self._command(self.running)
                 done, self.running = self.running.action, None
@@ -247,7 +263,7 @@ class NavigationStrategy:
 
     def forget(self) -> None:
         """Drop the plan (a recovery moved the robot: the next tick plans afresh)."""
-        self.plan, self.running, self.index = None, None, 0
+        self.plan, self.running, self.index, self._gait = None, None, 0, None
 
     # -- helpers -------------------------------------------------------------------------------
     @staticmethod
@@ -265,5 +281,21 @@ class NavigationStrategy:
 
     def _command(self, running: Running) -> Command:
         g = running.grounded
-        control = FixedShape.of(g.theta, g.joints)
+        assert running.started is not None
+        control = g.control(running.started)
+        if isinstance(control, PeriodicGait):
+            self._gait = control
         return Command(control, running.action.pddl, g.to_dict(), None)
+
+    def _finish_cycle(self, running: Running, t: float) -> Command | None:
+        """Before a gait move, while the last gait move's cycles are not over (a replan cut it
+        short): one tick of that gait with the screws still, so the joints end the cycle in
+        the shape the next move starts from."""
+        gait = self._gait
+        if running.grounded.phases is None or gait is None or t >= gait.t_end - 1e-9:
+            return None
+        still = PeriodicGait(
+            np.zeros_like(gait.theta), gait.phases, gait.amplitude, gait.omega, gait.t0, gait.t_end
+        )
+        grounding: dict[str, object] = {"method": "gait", "primitives": [], "duration": TICK}
+        return Command(still, "(finish the gait cycle)", grounding, None)

@@ -58,7 +58,7 @@ class PI2(SettingsFromFields):
         ):
             update += 1
             eps = self.noise_std(cost) * rng.standard_normal((self.rollouts, space.size))
-            if space.kind == "U3":
+            if space.size > 4:  # U3 with its phases learned too
                 eps[:, 4:] = self.phase_noise * rng.standard_normal((self.rollouts, 3))
             noisy = space.clamp(u + eps)
             costs = task.costs(noisy)

@@ -138,8 +138,9 @@ def move_slack(
         assert motion.primitive == action.primitive
         entry = LIB.get(motion.primitive)
         assert entry.family == "lattice" and action.duration == entry.rollout.duration
-        for pose in compose(start, np.asarray(entry.swept)):
-            assert truth.contact(footprint(pose, table.joints)) is None, action.pddl
+        bent = entry.swept_joints or [table.joints] * len(entry.swept)  # a gait's bends
+        for pose, joints in zip(compose(start, np.asarray(entry.swept)), bent, strict=True):
+            assert truth.contact(footprint(pose, np.asarray(joints))) is None, action.pddl
         seg = table.segments[k]
         lo = int(seg[action.motion])
         hi = int(seg[action.motion + 1]) if action.motion + 1 < len(seg) else len(table.points[k])

@@ -5,6 +5,7 @@ names are clear errors."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import os
 import subprocess
@@ -17,6 +18,7 @@ from domain.goal_order import LegGoal
 from domain.navigation import (
     SEARCH_NAMES,
     Failure,
+    MotionTable,
     NavigationSettings,
     Plan,
     Planner,
@@ -25,6 +27,7 @@ from domain.navigation import (
     motion_table,
 )
 from domain.world import CostmapSettings, WorldModel
+from primitives.library import Library
 from sim.obstacles import Circle, rectangle
 from sim.world import Bounds
 from tests.domain.lattice_scenes import (
@@ -44,6 +47,7 @@ COARSE = NavigationSettings(
     resolution=0.1, orientations=32, costmap=CostmapSettings(resolution=0.1)
 )
 COARSE_STRAIGHT = motion_table(LIB, "straight", (0.0, 0.0, 0.0), COARSE)
+PERIODIC = motion_table(LIB, "periodic", (0.0, 0.0, 0.0), SETTINGS)
 # The simulator's geometry is exact and the lethal layer exact at cell centres; between them
 # it is interpolated, which may read up to a millimetre more than the truth.
 INTERPOLATION = 1e-3
@@ -54,6 +58,7 @@ SCENES = [
     ("cluttered-2", ARC),
     ("narrow-3", STRAIGHT),
     ("narrow-7", ARC),
+    ("wall-and-post", PERIODIC),
 ]
 
 
@@ -169,9 +174,38 @@ def test_bad_search_or_heuristic_names_are_clear_errors() -> None:
 
 
 def test_a_shape_without_lattice_primitives_has_no_table() -> None:
-    assert motion_table(LIB, "periodic", (0.0, 0.0, 0.0), SETTINGS) is None
+    fixed = Library(e for e in LIB if e.shape != "arc" or e.family == "paper")
+    assert motion_table(fixed, "arc", (0.3, 0.3, 0.3), SETTINGS) is None
     for shape in LIB.lattice_shapes():
         assert motion_table(LIB, shape, (0.0, 0.0, 0.0), COARSE) is not None
+
+
+def test_a_gaits_motions_sweep_the_bending_body() -> None:
+    """The periodic table's sample points are the body's as it bends along the cycle (a
+    rigid sweep of the same poses keeps within the straight body), and its moves start and
+    end in the straight shape."""
+    assert PERIODIC is not None
+    rigid = [dataclasses.replace(m, joints=None) for m in PERIODIC.motions]
+    held = MotionTable("periodic", PERIODIC.joints, rigid, SETTINGS)
+    assert PERIODIC.joints == pytest.approx([0.0, 0.0, 0.0])
+    k = 0  # heading 0: the resting body lies along +x from the tracked point
+
+    def points(table: MotionTable, m: int) -> np.ndarray:
+        lo = int(table.segments[k][m])
+        hi = int(table.segments[k][m + 1]) if m + 1 < len(table.motions) else None
+        return table.points[k][lo:hi]
+
+    along = 0
+    for m, motion in enumerate(PERIODIC.motions):
+        assert motion.joints is not None and len(motion.joints) == len(motion.swept)
+        assert motion.joints[0] == pytest.approx([0, 0, 0], abs=1e-12)
+        assert motion.joints[-1] == pytest.approx([0, 0, 0], abs=1e-12)
+        if motion.turn == 0.0 and abs(float(motion.end[1])) < 0.01:  # along the body
+            along += 1
+            bent, straight = points(PERIODIC, m), points(held, m)
+            gap = np.linalg.norm(bent[:, None, :] - straight[None, :, :], axis=-1).min(axis=1)
+            assert 0.05 < float(np.max(gap)) < 0.1  # the tail swings out, by 0.09 m at most
+    assert along == 4
 
 
 def test_lattice_settings_are_checked() -> None:

@@ -20,6 +20,7 @@ from domain.navigation.settings import SearchSettings
 from domain.strategy import Situation
 from domain.triggers import Initial
 from domain.world import WorldModel
+from primitives.library import Library
 from sim.obstacles import Circle, rectangle
 from sim.world import Bounds
 from tests.domain.lattice_scenes import LIB, SETTINGS, STRAIGHT, plan
@@ -135,12 +136,13 @@ def test_the_time_limit_ends_planning_as_a_timeout() -> None:
 
 def test_a_shape_without_primitives_fails_as_no_primitives() -> None:
     world = WorldModel(ARENA, (), SETTINGS.costmap)
-    strategy = NavigationStrategy(LIB, Planner(ARENA, SETTINGS))
+    no_arc = Library(e for e in LIB if e.shape != "arc" or e.family == "paper")
+    strategy = NavigationStrategy(no_arc, Planner(ARENA, SETTINGS))
     goals = (LegGoal(0, 1.0, 1.0, 0.1),)
-    situation = Situation(0.0, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0), "periodic", goals, True, world)
+    situation = Situation(0.0, (0.0, 0.0, 0.0), (0.3, 0.3, 0.3), "arc", goals, True, world)
     out = strategy.replan(situation, Initial())
     assert not out.ok and out.failure == "no_primitives" and out.proof is None
-    assert out.reason == "body shape periodic has no primitives in the library"
+    assert out.reason == "body shape arc has no primitives in the library"
     assert out.record.status == "no_primitives" and strategy.plan is None
 
 

@@ -126,7 +126,7 @@ def corrupt(tmp_path: Path, text: str) -> Path:
         (lambda t: t[: len(t) // 2], "not valid JSON"),
         (lambda t: "[]", "not a screwsnake primitive library"),
         (lambda t: json.dumps({"format": "other", "version": 1}), "not a screwsnake"),
-        (lambda t: t.replace('"version": 2', '"version": 99'), "version 99 is not supported"),
+        (lambda t: t.replace('"version": 3', '"version": 99'), "version 99 is not supported"),
         (lambda t: t.replace('"cost": ', '"cost": NaN, "x": ', 1), "invalid at entries.0"),
         (lambda t: t.replace('"shape": "straight"', '"shape": "blob"', 1), "shape"),
         (lambda t: t.replace('"id": "zigzag-g1"', '"id": "straight-g1"'), "duplicate"),

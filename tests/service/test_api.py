@@ -254,7 +254,7 @@ def test_unknown_ids_are_404_problems(client: TestClient) -> None:
 def test_primitives_and_simulate(client: TestClient) -> None:
     listing = client.get("/primitives").json()
     # 49 paper primitives (Fig. 6 x 6 shapes + P5pe) and 110 lattice primitives (22 x 5 shapes)
-    assert listing["count"] == 159 and any(p["label"] == "P1s" for p in listing["items"])
+    assert listing["count"] == 181 and any(p["label"] == "P1s" for p in listing["items"])
     lattice = client.get("/primitives/lat-straight-t025-a180").json()
     assert lattice["family"] == "lattice" and lattice["rollout"]["duration"] <= 5
     p1s = client.get("/primitives/P1s").json()
@@ -314,7 +314,7 @@ def test_learning_job_cancelled_halfway(
 def test_health_and_metrics(client: TestClient) -> None:
     assert client.get("/livez").json() == {"status": "ok"}
     ready = wait_ready(client.get).json()  # once a mission worker is warm
-    assert ready["status"] == "ok" and ready["primitives"] == 159
+    assert ready["status"] == "ok" and ready["primitives"] == 181
     client.post("/missions", json=GOAL)
     text = client.get("/metrics").text
     assert "screwsnake_missions_created_total 1.0" in text and "screwsnake_ws_clients" in text

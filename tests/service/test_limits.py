@@ -10,12 +10,16 @@ from datetime import timedelta
 from pathlib import Path
 
 import pytest
+from fastapi.exceptions import RequestValidationError
 from fastapi.testclient import TestClient
 from sqlalchemy import text
 
+from app.api.limits import check_mission
 from app.main import create_app
+from app.missions.spec import MissionSpec
 from app.service import reconcile
 from app.settings import Settings
+from primitives.library import Library, load_bundled
 from tests.service.test_readiness import wait_ready
 
 GOAL = {
@@ -207,7 +211,6 @@ def test_tree_is_freed_from_memory_after_the_end_and_kept_in_the_store(tmp_path:
             "chain.0.until.sensor",
         ),
         ({**GOAL, "shape": {"joints": [1.2, -1.2, 1.2]}}, "shape.joints"),
-        ({**GOAL, "shape": "periodic"}, "shape"),  # no lattice primitives to plan with
     ],
 )
 def test_what_would_fail_later_is_422_at_post(tmp_path: Path, body: dict, field: str) -> None:
@@ -218,3 +221,14 @@ def test_what_would_fail_later_is_422_at_post(tmp_path: Path, body: dict, field:
         assert c.get("/missions").json()["total"] == 0
         ok = {"chain": [{"primitive": "P1s", "until": {"sensor": "ring3", "below": 0.3}}]}
         assert c.post("/missions", json={**ok, "sensors": {"ring": 4}}).status_code == 201
+
+
+def test_a_shape_the_library_has_no_lattice_primitives_for_is_422_naming_shape() -> None:
+    library = load_bundled()
+    no_gait = Library(e for e in library if e.shape != "periodic" or e.family == "paper")
+    spec = MissionSpec.model_validate({**GOAL, "shape": "periodic"})
+    check_mission(spec, Settings(), library)  # the bundled library plans the gait
+    with pytest.raises(RequestValidationError) as raised:
+        check_mission(spec, Settings(), no_gait)
+    (error,) = raised.value.errors()
+    assert error["loc"] == ("body", "shape") and "no lattice primitives" in error["msg"]

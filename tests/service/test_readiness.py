@@ -103,7 +103,7 @@ def test_not_ready_until_a_worker_is_warm_then_ready_and_saying_so(
         r = wait_ready(c.get)
         assert r.status_code == 200
         body = r.json()
-        assert body["status"] == "ok" and body["primitives"] == 159
+        assert body["status"] == "ok" and body["primitives"] == 181
         assert body["workers"] == {"warm": 1, "size": 2, "needed": 1}  # the other is gated
         (gates / str(second)).touch()
         r = poll(lambda: c.get("/readyz"), lambda r: warm_count(r) == 2)

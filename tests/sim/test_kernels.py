@@ -54,6 +54,24 @@ def test_gaits_same_in_both_kernels(thetas, phases, start, amplitude, omega, t0,
     np.testing.assert_allclose(compiled, plain, atol=1e-9, rtol=0)
 
 
+@settings(max_examples=20, deadline=None)
+@given(speeds, st.tuples(phase, phase, phase), st.floats(-5, 5), st.floats(0, 12), modes)
+def test_a_stopped_gait_holds_its_joints_in_both_kernels(thetas, phases, t0, run, mode) -> None:
+    """A gait with ``t_end`` holds φ(t_end) from there on, its joints still (both kernels)."""
+    control = PeriodicGait.of(thetas, phases, t0=t0, t_end=t0 + run)
+    compiled, plain = both(control, (0.0, 0.0, 0.0), RolloutConfig(15.0, 0.25, mode))
+    np.testing.assert_allclose(compiled, plain, atol=1e-9, rtol=0)
+    times = RolloutConfig(15.0, 0.25).times()
+    held = times >= t0 + run
+    want = control.angles(np.array([t0 + run]))[:, 0, :]
+    np.testing.assert_allclose(
+        compiled[:, held, 3:],
+        np.broadcast_to(want[:, None], compiled[:, held, 3:].shape),
+        atol=1e-12,
+    )
+    assert np.all(control.rates(times)[:, held] == 0.0)
+
+
 @settings(max_examples=15, deadline=None)
 @given(speeds, st.tuples(phase, phase, phase), pose, modes)
 def test_numpy_kernel_matches_reference(thetas, phases, start, mode) -> None:

@@ -17,6 +17,10 @@ carries what checking and pricing it needs, computed once per shape:
   units arrive; a turn in place swings the tail, a sideways or tail-first move leads with the
   body, through cells nothing has seen. What those cells risk is the motion's, in its cost
   (``domain.navigation.lattice.costs``).
+
+A fixed shape holds its joints throughout; a periodic gait's motion carries the joints of each
+swept pose (its start and end shape is the table's ``joints``), so its sample points are those
+of the body as it bends along the cycle (its new cells: the resting body's, see below).
 """
 
 from __future__ import annotations
@@ -87,6 +91,7 @@ class Motion:
     swept: Array  # tracked-point poses along the motion, start frame, [S, 3] (the start first)
     duration: float  # model seconds
     turn: float = 0.0  # the heading change it was learned for (rad; 0: a translation)
+    joints: Array | None = None  # [S, 3] the joints at each swept pose (None: the table's)
 
     @classmethod
     def of(cls, entry: Primitive) -> Motion:
@@ -97,6 +102,7 @@ class Motion:
             np.asarray(entry.swept or [(0.0, 0.0, 0.0), entry.end_pose], dtype=float),
             float(entry.rollout.duration),
             float(entry.turn),
+            np.asarray(entry.swept_joints, dtype=float) if entry.swept_joints else None,
         )
 
 
@@ -131,14 +137,25 @@ def _per_bin(starts: Array, ends: Array, radii: Array) -> tuple[list[Array], lis
 
 def thin(poses: Array, reach: float) -> Array:
     """Swept poses thinned so no body point moves more than SAMPLE_SPACING between them."""
-    keep = [poses[0]]
-    for pose in poses[1:]:
-        d = np.abs(pose - keep[-1])
-        if math.hypot(d[0], d[1]) + reach * d[2] > SAMPLE_SPACING:
-            keep.append(pose)
-    if not np.array_equal(keep[-1], poses[-1]):
-        keep.append(poses[-1])
-    return np.array(keep)
+    return np.asarray(poses[thin_indices(poses, reach)])
+
+
+def thin_indices(poses: Array, reach: float, joints: Array | None = None) -> list[int]:
+    """Indices of ``thin``'s poses; with ``joints`` (one row per pose) a bend moves the
+    body's points too (by at most ``reach`` times the joints' summed change)."""
+    keep = [0]
+    for n in range(1, len(poses)):
+        d = np.abs(poses[n] - poses[keep[-1]])
+        moved = math.hypot(d[0], d[1]) + reach * d[2]
+        if joints is not None:
+            moved += reach * float(np.sum(np.abs(joints[n] - joints[keep[-1]])))
+        if moved > SAMPLE_SPACING:
+            keep.append(n)
+    if not np.array_equal(poses[keep[-1]], poses[-1]) or (
+        joints is not None and not np.array_equal(joints[keep[-1]], joints[-1])
+    ):
+        keep.append(len(poses) - 1)
+    return keep
 
 
 def area_samples(joints: Array, geometry: RobotGeometry) -> Array:
@@ -243,13 +260,20 @@ class MotionTable:
             self.deltas[:, m, 2] = round(float(motion.end[2]) / self.settings.step)
             # The start pose too: a state's representative pose is where the previous move
             # landed, snapped to the lattice, so it was not checked by that move.
-            poses = thin(motion.swept, reach)
+            kept = thin_indices(motion.swept, reach, motion.joints)
+            poses = motion.swept[kept]
+            bent = None if motion.joints is None else motion.joints[kept]
             swept = compose(starts[:, None, :], poses)  # [K, S, 3]
-            fp = footprint(swept, self.joints, self.geometry)
+            fp = footprint(swept, self.joints if bent is None else bent, self.geometry)
             pts, need = _per_bin(fp.starts, fp.ends, fp.radii)
             pts_m.append(pts)
             need_m.append(need)
             lengths.append(_travel(poses, area))
+            # The new cells (what a move risks) are the resting body's: a gait's swinging tail
+            # keeps within 0.09 m of the straight body (primitives/shapes.py), beside cells the
+            # head's side rays cross as it passes them, cycle after cycle; counted per motion
+            # as blind, the tail's swing would charge every head-first step for cells it
+            # sweeps again and again. Validity (the sample points above) is the bent body's.
             cells_m.append(_new_cells(starts, poses, area, rays, r))
         self.lengths = np.array(lengths, dtype=np.float64)
         self.leads = np.array([tail_lead(m) for m in self.motions], dtype=np.float64)
