@@ -8,7 +8,7 @@ from dataclasses import dataclass
 from typing import Literal
 
 from primitives.params import ParameterSpace
-from primitives.shapes import FIXED_SHAPES, SHAPES
+from primitives.shapes import FIXED_SHAPES, SHAPES, shape_named
 
 Family = Literal["paper", "lattice"]
 FAMILIES: tuple[Family, ...] = ("paper", "lattice")
@@ -104,11 +104,11 @@ def lattice_id(shape: str, distance: float = 0.0, angle: int = 0, turn_deg: floa
 
 
 def lattice_specs(shapes: tuple[str, ...] = FIXED_SHAPES) -> list[PrimitiveSpec]:
-    """Per fixed shape (periodic ones are skipped): translations of the centroid at body angles
+    """Per fixed shape, named or learned (periodic ones are skipped): translations of the centroid at body angles
     0°, 45°, …, 315° × 0.05 m and 0.25 m, then turns in place by ±5.625°, ±22.5°, ±45°."""
     specs = []
     for shape in shapes:
-        if SHAPES[shape].periodic:
+        if shape_named(shape).periodic:
             continue
         for d in LATTICE_DISTANCES:
             for a in LATTICE_ANGLES:
