@@ -203,8 +203,9 @@ class Library:
         return sorted({e.shape for e in self if e.family == "lattice"})
 
     def covers(self, joints: Sequence[float], tolerance: float | None = None) -> Coverage:
-        """Whether the library covers the body shape ``joints``: a library shape within the
-        joint tolerance, or interpolable between library shapes (primitives/coverage.py)."""
+        """Whether the library covers the body shape ``joints`` for the paper's moves: a library
+        shape within the joint tolerance, or interpolable between library shapes
+        (primitives/coverage.py). A lattice planner asks ``lattice_covers`` instead."""
         from primitives.coverage import JOINT_TOLERANCE, covers
 
         tol = JOINT_TOLERANCE if tolerance is None else tolerance
