@@ -117,8 +117,8 @@ class ProgressGuard(MissionBehaviour):
 class ShapeGuard(MissionBehaviour):
     """The joint-angle sensors against the commanded shape: a deformation changes the shape
     (and replans); on the lattice, a shape without a lattice shape within the tolerance is
-    learned first (the runner learns while the tree waits); elsewhere a shape the library has
-    no primitives for ends the mission."""
+    learned first (by the runner, in this tick); elsewhere a shape the library has no
+    primitives for ends the mission."""
 
     def update(self) -> Status:
         ctx = self.ctx
@@ -160,11 +160,15 @@ class ShapeGuard(MissionBehaviour):
         cover = ctx.library.lattice_covers(joints, ctx.learning_settings.tolerance)
         ctx.shape, ctx.joints, ctx.deformed = shape, joints, True
         ctx.event("deform", joints=rounded, shape=shape, coverage=cover.to_dict())
-        ctx.trigger = ShapeChanged(shape, joints)  # replans once it has a lattice
-        if learn:
-            ctx.learn = joints
-            self.feedback_message = f"deformed into {shape}: learning its lattice"
-            return Status.RUNNING  # the runner learns before the tree plans
+        ctx.trigger = ShapeChanged(shape, joints)  # replans at once, on its lattice
+        if learn:  # here, so the tick goes on as it would had the library had the shape
+            assert ctx.learn_shape is not None
+            why = ctx.learn_shape(joints)
+            if why is not None:
+                ctx.failure = self.feedback_message = why
+                return Status.FAILURE
+            self.feedback_message = f"deformed into {shape}, learned its lattice"
+            return Status.SUCCESS
         self.feedback_message = f"deformed into {shape}"
         return Status.SUCCESS
 

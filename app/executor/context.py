@@ -8,6 +8,7 @@ simulator state.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -94,9 +95,11 @@ class MissionContext:
     chain_entry_pose: tuple[float, float, float] | None = None
     executed: list[dict[str, Any]] = field(default_factory=list)
     cancel: CancelFlag | None = None  # the mission's cancel flag, passed to the planner
-    # A shape the library has no lattice for: its joints, until the runner has learned it,
-    # and how far learning got (done / total primitives, for the state frames).
+    # A start shape the library has no lattice for (learned before the first plan); how a
+    # guard has a shape learned (the runner's ``learn_shape``: None, or why it could not); and
+    # how far learning got (done / total primitives, for the state frames).
     learn: tuple[float, float, float] | None = None
+    learn_shape: Callable[[tuple[float, float, float]], str | None] | None = None
     learning: dict[str, Any] | None = None
     learning_settings: LearningSettings = field(default_factory=LearningSettings)
     # the last situation and what it was built from: the guards and the execution ask for

@@ -46,11 +46,12 @@ from domain.world import WorldModel
 from primitives.grounding import TICK
 from primitives.library import Library
 from primitives.shape_learning import LearnedShape, LearningCancelled, LearningStopped
-from primitives.shapes import learned_joints
+from primitives.shapes import learned_joints, learned_name
 from sim.controls import FixedShape
 from sim.obstacles import Obstacle
 
 MAX_RETICKS = 4  # ticks within one control tick while the tree only plans
+CANCELLED = "cancelled by request"
 TRAJECTORY_POINTS = 2000
 _ids = itertools.count()
 
@@ -138,6 +139,7 @@ class MissionRunner:
         self.learned: list[LearnedShape] = []  # shapes this mission learned, oldest first
         self.ctx = self._context(spec, library, self.robot, learning or LearningSettings())
         self.ctx.cancel = self.cancel  # the planner stops its search when it is set
+        self.ctx.learn_shape = self.learn_shape  # a deformation into a shape without a lattice
         self.ctx.searches_kept = searches_kept  # newest plan versions keeping their searches whole
         self._writer = py_trees.blackboard.Client(name="runner", namespace=self.namespace)
         self._writer.register_key("context", access=Access.WRITE)
@@ -200,18 +202,19 @@ class MissionRunner:
             return True
         ctx = self.ctx
         if self.cancel.is_set():
-            return self._finish("cancelled", "cancelled by request")
+            return self._finish("cancelled", CANCELLED)
         if self.paused:  # model time stands still until resumed
             return False
         if ctx.learn is not None:  # the start shape, before its first plan
-            return self._learn()
+            joints, ctx.learn = ctx.learn, None
+            why = self.learn_shape(joints)
+            if why is not None:
+                return self._finish("cancelled" if why == CANCELLED else "failed", why)
         for _ in range(MAX_RETICKS):
             ctx.command = None
             self.tree.tick_once()
             if self.tree.status != Status.RUNNING or ctx.command is not None:
                 break
-            if ctx.learn is not None:  # a deformation into a shape without a lattice
-                return self._learn()
         if self.cancel.is_set():  # a cancel during planning ends the mission as cancelled
             return self._finish("cancelled", "cancelled by request")
         if self.tree.status == Status.SUCCESS:
@@ -238,41 +241,40 @@ class MissionRunner:
             )
         return False
 
-    def _learn(self) -> bool:
-        """Learn the lattice set of ``ctx.learn`` while the robot stands still (no tick, so no
-        model time), then go on with the library it joined; True when that ended the mission
-        (cancelled, past the budget, or no motion learned)."""
+    def learn_shape(self, joints: tuple[float, float, float]) -> str | None:
+        """Learn the lattice set of the shape ``joints`` while the robot stands still (inside
+        the tick that found it: no control tick runs, so no model time passes), then go on with
+        the library it joined, its lattice's tables made; None, or why it could not (cancelled,
+        past the budget, no motion learned: the mission ends with that reason)."""
         ctx = self.ctx
-        assert ctx.learn is not None
-        joints, settings = ctx.learn, ctx.learning_settings
-        ctx.learning = {"shape": ctx.shape, "done": 0, "total": 0}
-        ctx.current_action, ctx.grounding = f"learning {ctx.shape}", {}
+        shape = learned_name(joints)
+        shown = ctx.current_action, ctx.grounding
+        ctx.learning = {"shape": shape, "done": 0, "total": 0}
+        ctx.current_action, ctx.grounding = f"learning {shape}", {}
 
         def progress(done: int, total: int) -> None:
-            ctx.learning = {"shape": ctx.shape, "done": done, "total": total}
+            ctx.learning = {"shape": shape, "done": done, "total": total}
             if self.on_learning is not None:
                 self.on_learning(ctx)
 
         try:
-            learned = self.learner(joints, settings, self.cancel.is_set, progress)
+            learned = self.learner(joints, ctx.learning_settings, self.cancel.is_set, progress)
         except LearningCancelled:
-            return self._finish("cancelled", "cancelled by request")
+            return CANCELLED
         except LearningStopped as exc:
-            return self._finish("failed", f"learning: {exc}")
+            return f"learning: {exc}"
         finally:
             ctx.learning = None
+            ctx.current_action, ctx.grounding = shown
         if not learned.entries:
-            return self._finish(
-                "failed", f"learning: shape {learned.shape}: no lattice motion reached the bar"
-            )
+            return f"learning: shape {learned.shape}: no lattice motion reached the bar"
         library = ctx.library.with_entries(learned.entries)
         self.use_library(library)
         begun = time.perf_counter()  # the new lattice's tables now, not in the first replan
         warm_tables(library, ctx.settings, ctx.view, shapes=(learned.shape,))
         self.learned.append(learned)
-        ctx.learn = None
         ctx.event("learned", **learned_event(learned, library, time.perf_counter() - begun))
-        return False
+        return None
 
     def use_library(self, library: Library) -> None:
         """Run on ``library`` from now on (a new version: the old one's entries and more)."""
