@@ -22,7 +22,8 @@ from primitives.executors import make_executor
 from primitives.learners import LEARNERS, StopRule, UpdateRecord, make_learner
 from primitives.library import Library, LibraryError, Primitive, bundled_library_path
 from primitives.params import ParameterSpace
-from primitives.shapes import SHAPES, shape_named
+from primitives.shape_learning import LearningStopped, learn_shape
+from primitives.shapes import SHAPES, learned_name, shape_named
 from primitives.task import LearningTask
 from sim.rollout import rollout
 
@@ -196,6 +197,63 @@ def library_build(
         emit({"out": str(out), "primitives": len(library), "families": families})
         return
     console.print(f"{len(library)} primitives: {', '.join(parts) or 'none'} → {out}")
+
+
+@library_cli.command("learn-shape")
+def learn_shape_command(
+    joints: Annotated[
+        str, typer.Option(metavar="A,B,C", help="the fixed shape's three joint angles (rad)")
+    ],
+    library: Annotated[
+        Path | None, typer.Option(help="the library to extend (default: the bundled one)")
+    ] = None,
+    out: Annotated[
+        Path, typer.Option(help="where to save the library with the learned shape")
+    ] = Path("out/library-learned.json"),
+    budget: Annotated[float, typer.Option(help="wall seconds for the whole set")] = 30.0,
+    as_json: AsJson = False,
+) -> None:
+    """Learn a fixed shape's lattice primitives (as a mission or POST /jobs/learn does: PI²-CMA,
+    a seed from the shape) and save the library with them; the input file is not changed."""
+    try:
+        angles = tuple(float(v) for v in joints.split(","))
+    except ValueError:
+        raise fail(f"joints: three numbers a,b,c (radians); got {joints!r}") from None
+    try:  # the API's request model: the same joint limits as POST /jobs/learn
+        LearnIn.model_validate({"joints": angles})
+    except ValidationError as exc:
+        raise invalid(exc) from exc
+    path = library or bundled_library_path()
+    if out.resolve() == path.resolve() or out.resolve() == bundled_library_path().resolve():
+        raise fail(f"out: {out} is the input library; save the learned library elsewhere")
+    try:
+        base = Library.load(path)
+    except LibraryError as exc:
+        raise fail(str(exc)) from exc
+    columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn())
+    with Progress(*columns, console=console, disable=as_json) as bar:
+        task = bar.add_task(f"learning {learned_name(angles)}", total=None)
+        try:
+            learned = learn_shape(
+                angles,
+                budget=budget,
+                progress=lambda done, total: bar.update(task, completed=done, total=total),
+            )
+        except LearningStopped as exc:
+            raise fail(f"learning: {exc}") from exc
+    grown = base.with_entries(learned.entries)
+    grown.save(out)
+    summary = {**learned.summary(), "out": str(out), "library": grown.version[:12]}
+    if as_json:
+        emit(summary)
+    else:
+        left = f", left out: {', '.join(learned.failed)}" if learned.failed else ""
+        console.print(
+            f"{learned.shape}: {len(learned.entries)} lattice primitives in "
+            f"{learned.wall:.2f} s ({learned.rollouts} rollouts{left}) → {out}"
+        )
+    if not learned.entries:
+        raise typer.Exit(1)
 
 
 @library_cli.command("show")

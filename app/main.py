@@ -34,6 +34,7 @@ from app.api.server_timing import ServerTiming
 from app.service.hub import Hub
 from app.service.intake import Intake
 from app.service.jobs import Jobs
+from app.service.library import SharedLibrary
 from app.service.live import LiveUpdates
 from app.service.metrics import Metrics
 from app.service.supervisor import Supervisor
@@ -64,11 +65,17 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         store = Store(engine)
         path = config.library or bundled_library_path()
         library = Library.load(path)  # once: missions get this copy, the file may go away
-        version = store.record_library(library.to_json(), code_version(), len(library), str(path))
+        shared = SharedLibrary(store, library, str(path))  # with the shapes learned before
         metrics = Metrics()
         hub = Hub(config.ws_queue)
-        supervisor = Supervisor(store, library, hub, config, metrics)
-        learning = Jobs(store, metrics, max_queued=config.max_queued_jobs)
+        supervisor = Supervisor(store, shared, hub, config, metrics)
+        learning = Jobs(
+            store,
+            metrics,
+            max_queued=config.max_queued_jobs,
+            library=shared,
+            budget=config.learn_budget,
+        )
         # FastAPI's thread pool (sync routes and dependencies, run_in_threadpool) is anyio's
         # default limiter, per event loop: sized here, once the loop runs.
         to_thread.current_default_thread_limiter().total_tokens = config.api_threads
@@ -78,12 +85,11 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.state.services = Services(
             config,
             store,
-            library,
+            shared,
             hub,
             supervisor,
             learning,
             metrics,
-            version[:12],
             snapshots,
             Intake(store, supervisor, metrics, config.post_batch),
             validation,

@@ -98,6 +98,9 @@ class Settings(BaseModel):
     # missions' `max_body`); larger is 413 before the body is read.
     max_map_body: int = Field(20_000_000, ge=1024, le=1_000_000_000)
     wall_limit: float = Field(3600.0, gt=0, le=7 * 86400)  # wall-clock seconds per mission
+    # Wall seconds a mission may spend learning the lattice set of a shape the library lacks
+    # (past it: failed, "learning: ..."; about 0.3 s on one core, bench/learning.py shapes).
+    learn_budget: float = Field(30.0, gt=0, le=3600)
     min_speed: float = Field(0.01, gt=0, le=10_000)  # slowest real-time pacing (0 = unpaced)
     reconcile_seconds: float = Field(30.0, gt=0, le=86400)  # how often lost missions are ended
     ws_rate: float = Field(10.0, gt=0, le=200)  # state frames per second and client

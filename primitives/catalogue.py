@@ -104,9 +104,9 @@ def lattice_id(shape: str, distance: float = 0.0, angle: int = 0, turn_deg: floa
 
 
 def lattice_specs(shapes: tuple[str, ...] = tuple(SHAPES)) -> list[PrimitiveSpec]:
-    """Per shape: translations of the centroid at body angles 0°, 45°, …, 315° × 0.05 m and
-    0.25 m, then turns in place by ±5.625°, ±22.5°, ±45° (the periodic gait's as whole gait
-    cycles from its lattice phases, primitives/lattice.py)."""
+    """Per shape, named or learned: translations of the centroid at body angles 0°, 45°, …,
+    315° × 0.05 m and 0.25 m, then turns in place by ±5.625°, ±22.5°, ±45° (the periodic gait's
+    as whole gait cycles from its lattice phases, primitives/lattice.py)."""
     specs = []
     for shape in shapes:
         for d in LATTICE_DISTANCES:

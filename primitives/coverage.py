@@ -13,7 +13,7 @@ the shapes with a weight in the nearest combination.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Literal
 
@@ -24,6 +24,11 @@ from scipy.optimize import nnls
 from primitives.shapes import SHAPES
 
 JOINT_TOLERANCE = 0.15  # rad (max-abs over the three joints): a library shape "as it is"
+# A lattice motion run on joints this far from its shape's lands within one lattice cell
+# (5 cm) and one heading bin (5.625°) of its recorded end: the worst over the five fixed
+# shapes' 110 motions and six directions of offset was 2.6 cm and 3.0° at 0.05 rad, but
+# 5.6 cm and 6.8° at 0.15 rad (docs/navigation.md, "Shapes the library lacks").
+LATTICE_TOLERANCE = 0.05  # rad
 MIN_WEIGHT = 1e-3  # weights below this are not named as sources
 Kind = Literal["library", "interpolated", "none"]
 
@@ -112,6 +117,25 @@ def covers(
         error,
         tolerance,
     )
+
+
+def nearest_shape(
+    joints: ArrayLike,
+    shapes: Mapping[str, Sequence[float]],
+    tolerance: float = LATTICE_TOLERANCE,
+) -> Coverage:
+    """The shape of ``shapes`` (name -> joints) nearest to ``joints`` (max-abs) when within
+    ``tolerance``: a ``library`` coverage; else ``none`` (no blends: a lattice motion's end
+    holds for its own joints only). Ties go to the first name in sorted order."""
+    j = np.asarray(joints, dtype=float)
+    if j.shape != (3,) or not np.all(np.isfinite(j)) or not shapes:
+        return Coverage("none", None, tolerance=tolerance)
+    names = sorted(shapes)
+    dist = np.max(np.abs(np.array([shapes[n] for n in names], dtype=float) - j), axis=1)
+    best = int(np.argmin(dist))
+    if dist[best] <= tolerance:
+        return Coverage("library", names[best], error=float(dist[best]), tolerance=tolerance)
+    return Coverage("none", None, error=float(dist[best]), tolerance=tolerance)
 
 
 def _convex_weights(table: np.ndarray, joints: np.ndarray) -> np.ndarray:

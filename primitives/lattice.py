@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike
 from primitives.catalogue import PrimitiveSpec
 from primitives.grounding import gait_duration
 from primitives.learners import CMAES, PI2CMA, Learner, LearningResult, StopRule, make_learner
+from primitives.learners.base import Progress
 from primitives.library import Primitive, RolloutSettings
 from primitives.params import ParameterSpace
 from primitives.pose_task import LATTICE_DT, PoseTask, reference_motion
@@ -108,20 +109,32 @@ def quiet(learner: Learner) -> Learner:
 
 
 def _learn(
-    learner: Learner, task: PoseTask, seed: int, stop: StopRule, initial: Array | None = None
+    learner: Learner,
+    task: PoseTask,
+    seed: int,
+    stop: StopRule,
+    initial: Array | None = None,
+    progress: Progress | None = None,
 ) -> LearningResult:
     result = None
     for attempt in range(MAX_ATTEMPTS):  # a seed that does not converge is followed by the next
-        result = learner.learn(task, seed + 1000 * attempt, stop, initial)
+        result = learner.learn(task, seed + 1000 * attempt, stop, initial, progress)
         if result.converged:
             break
     assert result is not None
     return result
 
 
-def learn_lattice(spec: PrimitiveSpec, learner_name: str, seed: int, stop: StopRule) -> Primitive:
+def learn_lattice(
+    spec: PrimitiveSpec,
+    learner_name: str,
+    seed: int,
+    stop: StopRule,
+    progress: Progress | None = None,
+) -> Primitive:
     """Learn, retime, refine and record one lattice primitive (deterministic for a seed); a
-    periodic shape's by ``learn_gait_lattice``."""
+    periodic shape's by ``learn_gait_lattice``. ``progress`` is called after every update of a
+    fixed shape's learner (it may raise ``CancelledError`` to stop)."""
     target = (spec.goal[0], spec.goal[1], spec.turn)
     space = spec.space()
     if space.kind == "U3":
@@ -131,7 +144,11 @@ def learn_lattice(spec: PrimitiveSpec, learner_name: str, seed: int, stop: StopR
     learner = make_learner(learner_name)
     slow = nominal_duration(target)
     first = _learn(
-        learner, PoseTask(target, space, config=RolloutConfig(slow, LATTICE_DT)), seed, stop
+        learner,
+        PoseTask(target, space, config=RolloutConfig(slow, LATTICE_DT)),
+        seed,
+        stop,
+        progress=progress,
     )
     theta, duration = retime(trim_idle(first.params, space.joints), slow)
     capped = dataclasses.replace(space, speed_limit=SPEED_TARGET)
@@ -139,7 +156,7 @@ def learn_lattice(spec: PrimitiveSpec, learner_name: str, seed: int, stop: StopR
     cost = float(task.costs(theta[None, :])[0])
     results = [first]
     if cost >= stop.threshold:
-        results.append(_learn(quiet(learner), task, seed, stop, theta))
+        results.append(_learn(quiet(learner), task, seed, stop, theta, progress))
         theta, cost = np.asarray(results[-1].params), results[-1].cost
     states = rollout(space.control(theta), config=task.config).states[0]
     settings = {**first.settings, "nominal_duration": slow, "refined": len(results) > 1}

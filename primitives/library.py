@@ -12,6 +12,7 @@ or newer file raises ``LibraryError`` with the reason; there is never a half-loa
 
 from __future__ import annotations
 
+import hashlib
 import json
 import math
 from collections.abc import Iterable, Iterator, Sequence
@@ -23,7 +24,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from primitives.params import Kind, ParameterSpace
-from primitives.shapes import SHAPES
+from primitives.shapes import is_shape
 from sim.controls import GAIT_AMPLITUDE, GAIT_CYCLE, Control, PeriodicGait
 from sim.rollout import JointMode, RolloutConfig
 
@@ -99,7 +100,7 @@ class Primitive(Frozen):
 
     @model_validator(mode="after")
     def _consistent(self) -> Primitive:
-        if self.shape not in SHAPES:
+        if not is_shape(self.shape):
             raise ValueError(f"shape: unknown {self.shape!r}")
         if self.periodic != (self.phases is not None) or self.periodic == (self.joints is not None):
             raise ValueError(
@@ -186,6 +187,7 @@ class Library:
         self._by_name = {e.id: e for e in self.file.entries}
         self._of_shape: dict[tuple[str, Family | None], tuple[Primitive, ...]] = {}
         self._by_name.update({e.label: e for e in self.file.entries if e.label})
+        self._version: str | None = None
 
     def __len__(self) -> int:
         return len(self.file.entries)
@@ -231,12 +233,40 @@ class Library:
         return sorted({e.shape for e in self if e.family == "lattice"})
 
     def covers(self, joints: Sequence[float], tolerance: float | None = None) -> Coverage:
-        """Whether the library covers the body shape ``joints``: a library shape within the
-        joint tolerance, or interpolable between library shapes (primitives/coverage.py)."""
+        """Whether the library covers the body shape ``joints`` for the paper's moves: a library
+        shape within the joint tolerance, or interpolable between library shapes
+        (primitives/coverage.py). A lattice planner asks ``lattice_covers`` instead."""
         from primitives.coverage import JOINT_TOLERANCE, covers
 
         tol = JOINT_TOLERANCE if tolerance is None else tolerance
         return covers(joints, self.shapes(), tol)
+
+    def lattice_covers(self, joints: Sequence[float], tolerance: float | None = None) -> Coverage:
+        """Whether a shape with lattice primitives is within ``tolerance`` (max-abs, rad;
+        default ``LATTICE_TOLERANCE``) of ``joints``: the only cover a lattice planner may use,
+        since a lattice motion's recorded end holds for its own joints alone (a blend of
+        shapes, or a shape further off, lands elsewhere: primitives/coverage.py)."""
+        from primitives.coverage import LATTICE_TOLERANCE, nearest_shape
+
+        tol = LATTICE_TOLERANCE if tolerance is None else tolerance
+        held: dict[str, tuple[float, float, float]] = {}
+        for e in self:
+            if e.family == "lattice" and e.joints is not None:
+                held.setdefault(e.shape, e.joints)
+        return nearest_shape(joints, held, tol)
+
+    def with_entries(self, entries: Iterable[Primitive]) -> Library:
+        """A new library: these entries after this one's (ids already here are kept as they
+        are: the same shape learned twice from the same seed gives the same entries)."""
+        added = [e for e in entries if e.id not in self._by_name]
+        return Library([*self.file.entries, *added], self.file.code_version)
+
+    @property
+    def version(self) -> str:
+        """The SHA-256 of the library's JSON: what the store records as its version."""
+        if self._version is None:
+            self._version = hashlib.sha256(self.to_json().encode()).hexdigest()
+        return self._version
 
     def nearest(self, displacement: tuple[float, float], shape: str) -> Primitive:
         """The paper entry of ``shape`` whose start-frame goal is closest to ``displacement``."""

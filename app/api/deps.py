@@ -14,6 +14,7 @@ from app.api.limits import key_ok
 from app.service.hub import Hub
 from app.service.intake import Intake
 from app.service.jobs import Jobs
+from app.service.library import SharedLibrary
 from app.service.live import LiveUpdates
 from app.service.metrics import Metrics
 from app.service.supervisor import Supervisor
@@ -27,16 +28,24 @@ from primitives.library import Library
 class Services:
     settings: Settings
     store: Store
-    library: Library
+    shared: SharedLibrary  # the library file plus the shapes learned since (a new version each)
     hub: Hub
     supervisor: Supervisor
     jobs: Jobs
     metrics: Metrics
-    library_version: str
     snapshots: CapacityLimiter  # bounds the websocket snapshots built at once
     intake: Intake  # stores and queues posted missions, in batches
     validation: Validation  # request bodies (and live updates) validated off the event loop
     live: LiveUpdates  # the rules of live updates of running missions
+
+    @property
+    def library(self) -> Library:
+        """The library now (its newest version)."""
+        return self.shared.library
+
+    @property
+    def library_version(self) -> str:
+        return self.shared.version
 
 
 # The dependencies are ``async``: FastAPI runs a plain ``def`` dependency in its thread pool,

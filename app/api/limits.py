@@ -25,7 +25,7 @@ from app.service.supervisor import QueueFull
 from app.service.validation import ValidationUnavailable
 from app.settings import Settings
 from primitives.library import Library
-from primitives.shapes import classify_shape
+from primitives.shapes import learned_joints
 
 SAFE_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
 # Computation, not a write: guarded only under SCREWSNAKE_AUTH=all.
@@ -177,7 +177,8 @@ class RequestGuard:
 
 def check_mission(spec: MissionSpec, settings: Settings, library: Library) -> None:
     """What depends on the server: at most ``max_goals`` goals (422 naming ``goals``), its
-    library covers the body shape (422 naming ``shape``), and the speed fits its wall-clock
+    library has lattice primitives for a named body shape (422 naming ``shape``; a shape given
+    by its joints is learned in the mission when it lacks them), and the speed fits its wall-clock
     limit (422 naming ``speed``)."""
     if len(spec.goals) > settings.max_goals:
         invalid(
@@ -186,9 +187,8 @@ def check_mission(spec: MissionSpec, settings: Settings, library: Library) -> No
         )
     if spec.goals and spec.planner.domain == "navigation":
         shape = spec.shape_name()
-        if shape == "custom":  # the spec made sure it classifies
-            shape = classify_shape(spec.start_joints()) or shape
-        if shape not in library.lattice_shapes():
+        learnable = shape == "custom" or learned_joints(shape) is not None
+        if not learnable and shape not in library.lattice_shapes():
             invalid(
                 "shape",
                 f"the library has no lattice primitives for {shape!r} to plan with; "

@@ -9,7 +9,7 @@ from fastapi import APIRouter, Path, Query
 from app.api.deps import Svc
 from app.api.errors import ApiError, responses
 from app.api.schemas import PrimitiveList, PrimitiveSummary
-from primitives.shapes import SHAPES
+from primitives.shapes import SHAPES, is_shape
 
 router = APIRouter(tags=["primitives"])
 
@@ -19,11 +19,18 @@ def list_primitives(
     svc: Svc,
     shape: Annotated[
         str | None,
-        Query(max_length=40, description=f"only this body shape: one of {', '.join(SHAPES)}"),
+        Query(
+            max_length=40,
+            description=(
+                f"only this body shape: one of {', '.join(SHAPES)}, or a learned shape's name "
+                "(body-p090-m030-p060: its joints in hundredths of a radian)"
+            ),
+        ),
     ] = None,
 ) -> PrimitiveList:
-    """The library's primitives (paper and lattice), optionally of one shape."""
-    if shape is not None and shape not in SHAPES:
+    """The library's primitives (paper and lattice; the bundled file's and those learned
+    since), optionally of one shape."""
+    if shape is not None and not is_shape(shape):
         # the same answer as a mission naming an unknown shape
         raise ApiError(422, f"shape: unknown {shape!r}; known: {', '.join(SHAPES)}", "shape")
     items = [

@@ -15,7 +15,8 @@ from pydantic import BaseModel, ConfigDict, Field, RootModel, model_validator
 from app.missions.spec import Coord, GoalSpec, Joint, ObstacleSpec, Pose
 from app.missions.status import MissionStatus
 from app.service.frames import PoseOut
-from primitives.shapes import SHAPES
+from primitives.shapes import SHAPES, is_shape
+from sim.robot import DEFAULT_GEOMETRY
 
 Finite = Annotated[float, Field(allow_inf_nan=False)]
 
@@ -259,18 +260,40 @@ class SimulateOut(BaseModel):
 
 
 class LearnIn(BaseModel):
-    """Learn one primitive: parameters that carry the robot to ``goal`` in one rollout."""
+    """Learn one primitive (parameters that carry the robot to ``goal`` in one rollout), or,
+    given ``joints``, the full lattice set of that fixed shape, which joins the library."""
 
     model_config = ConfigDict(
         extra="forbid",
-        json_schema_extra={"examples": [{"goal": [-2, -2], "learner": "pi2-cma", "seed": 1}]},
+        json_schema_extra={
+            "examples": [
+                {"goal": [-2, -2], "learner": "pi2-cma", "seed": 1},
+                {"joints": [0.9, -0.3, 0.6]},
+            ]
+        },
     )
-    goal: tuple[
-        Annotated[float, Field(allow_inf_nan=False, ge=-7, le=7)],
-        Annotated[float, Field(allow_inf_nan=False, ge=-7, le=7)],
-    ] = Field(description="target displacement of the tracked point (start frame), metres")
+    goal: (
+        tuple[
+            Annotated[float, Field(allow_inf_nan=False, ge=-7, le=7)],
+            Annotated[float, Field(allow_inf_nan=False, ge=-7, le=7)],
+        ]
+        | None
+    ) = Field(
+        default=None,
+        description="target displacement of the tracked point (start frame), metres",
+    )
+    joints: tuple[Joint, Joint, Joint] | None = Field(
+        default=None,
+        description=(
+            "a fixed body shape's joint angles (radians, within the joint limits): learn its "
+            "lattice primitives with PI²-CMA from a seed derived from the shape (goal, shape, "
+            "learner, seed, threshold and max_updates do not apply); they join the library as "
+            "a new version unless that shape is there already"
+        ),
+    )
     shape: str = Field(
-        default="straight", description=f"body shape held: free or one of {', '.join(SHAPES)}"
+        default="straight",
+        description=f"body shape held: free, one of {', '.join(SHAPES)} or a learned shape's name",
     )
     learner: Literal["pi2", "pi2-cma", "cmaes"] = Field(
         default="pi2", description="pi2 (the paper's), pi2-cma or cmaes"
@@ -284,8 +307,15 @@ class LearnIn(BaseModel):
 
     @model_validator(mode="after")
     def _shape(self) -> LearnIn:
-        if self.shape != "free" and self.shape not in SHAPES:
+        if self.shape != "free" and not is_shape(self.shape):
             raise ValueError(f"shape: unknown {self.shape!r}; known: free, {', '.join(SHAPES)}")
+        if (self.goal is None) == (self.joints is None):
+            raise ValueError("goal: give a goal (one primitive) or joints (a lattice set)")
+        limit = DEFAULT_GEOMETRY.max_joint_angle
+        if self.joints is not None and max(abs(v) for v in self.joints) > limit:
+            raise ValueError(
+                f"joints: {list(self.joints)} is outside the joint limits (±{limit:.2f} rad)"
+            )
         return self
 
 

@@ -17,12 +17,13 @@ import math
 from py_trees.common import Access, Status
 
 from app.executor.context import MissionContext
+from app.executor.learning import lattice_shape
 from app.executor.light import LightBehaviour
 from app.executor.plan_versions import PlanVersion, settle
 from app.missions.spec import ARRIVE_FRACTION
 from domain.strategy import Command
 from domain.triggers import Contact, Initial, NoProgress, ShapeChanged, Trigger
-from primitives.shapes import SHAPES
+from primitives.shapes import shape_named
 
 
 class MissionBehaviour(LightBehaviour):
@@ -115,13 +116,15 @@ class ProgressGuard(MissionBehaviour):
 
 class ShapeGuard(MissionBehaviour):
     """The joint-angle sensors against the commanded shape: a deformation changes the shape
-    (and replans); a shape the library has no primitives for ends the mission."""
+    (and replans); on the lattice, a shape without a lattice shape within the tolerance is
+    learned first (by the runner, in this tick); elsewhere a shape the library has no
+    primitives for ends the mission."""
 
     def update(self) -> Status:
         ctx = self.ctx
         a, b, c = sensed = ctx.observation.joints  # three floats: compared as such, every tick
         finite = math.isfinite
-        if not (finite(a) and finite(b) and finite(c)) or SHAPES[ctx.shape].periodic:
+        if not (finite(a) and finite(b) and finite(c)) or shape_named(ctx.shape).periodic:
             self.feedback_message = f"{ctx.shape} (joints not read)"
             return Status.SUCCESS  # no reading (dropout), or the gait moves the joints on purpose
         if ctx.reshaping:
@@ -132,8 +135,10 @@ class ShapeGuard(MissionBehaviour):
             self.feedback_message = f"{ctx.shape} as commanded"
             return Status.SUCCESS
         joints = (float(sensed[0]), float(sensed[1]), float(sensed[2]))
-        coverage = ctx.library.covers(joints)
         rounded = [round(v, 2) for v in joints]
+        if ctx.on_lattice:
+            return self._on_lattice(joints, rounded)
+        coverage = ctx.library.covers(joints)
         if coverage.shape is None:
             ctx.failure = (
                 f"body shape {rounded} has no primitives in the library ({coverage.describe()})"
@@ -146,6 +151,24 @@ class ShapeGuard(MissionBehaviour):
         ctx.shape, ctx.joints, ctx.deformed = shape, joints, True
         ctx.event("deform", joints=rounded, shape=shape, coverage=coverage.to_dict())
         ctx.trigger = ShapeChanged(shape, joints)  # replans at once, whatever was pending
+        self.feedback_message = f"deformed into {shape}"
+        return Status.SUCCESS
+
+    def _on_lattice(self, joints: tuple[float, float, float], rounded: list[float]) -> Status:
+        ctx = self.ctx
+        shape, learn = lattice_shape(ctx.library, joints, ctx.learning_settings)
+        cover = ctx.library.lattice_covers(joints, ctx.learning_settings.tolerance)
+        ctx.shape, ctx.joints, ctx.deformed = shape, joints, True
+        ctx.event("deform", joints=rounded, shape=shape, coverage=cover.to_dict())
+        ctx.trigger = ShapeChanged(shape, joints)  # replans at once, on its lattice
+        if learn:  # here, so the tick goes on as it would had the library had the shape
+            assert ctx.learn_shape is not None
+            why = ctx.learn_shape(joints)
+            if why is not None:
+                ctx.failure = self.feedback_message = why
+                return Status.FAILURE
+            self.feedback_message = f"deformed into {shape}, learned its lattice"
+            return Status.SUCCESS
         self.feedback_message = f"deformed into {shape}"
         return Status.SUCCESS
 

@@ -20,7 +20,7 @@ from app.executor.context import MissionContext
 from app.missions.spec import ChainStep
 from primitives.grounding import correction_basis, ground
 from primitives.interpolation import interpolate_entries, interpolate_in_shape
-from primitives.shapes import SHAPES
+from primitives.shapes import shape_named
 from sim.controls import FixedShape, PeriodicGait
 
 REACH_TIMEOUT = 400.0  # model seconds a `reach` step may take
@@ -127,7 +127,7 @@ class ChainStepBehaviour(MissionBehaviour):
         if not basis:
             return False
         grounded = ground((local[0], local[1], turn), basis)
-        joints = np.asarray(ctx.joints if ctx.deformed else SHAPES[shape].joints)
+        joints = np.asarray(ctx.joints if ctx.deformed else shape_named(shape).joints)
         self._set_shape(ctx, shape)
         ctx.current_action = f"turn to {step.heading:g} deg (chain step {self.index})"
         ctx.grounding = grounded.to_dict()
@@ -166,7 +166,7 @@ class ChainStepBehaviour(MissionBehaviour):
             shape = entries[0].shape
         if not ctx.deformed:
             self._set_shape(ctx, shape)
-        elif ctx.shape != shape and not SHAPES[ctx.shape].periodic:
+        elif ctx.shape != shape and not shape_named(ctx.shape).periodic:
             # The body cannot hold these joints: the sensed shape's primitives, same direction.
             scale = 2.0 / max(math.hypot(*goal), 1e-9)
             made = interpolate_in_shape(ctx.library, (goal[0] * scale, goal[1] * scale), ctx.shape)

@@ -8,9 +8,11 @@ simulator state.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
+from app.executor.learning import LearningSettings
 from app.executor.plan_versions import SEARCHES_KEPT, PlanVersion
 from app.executor.robot import ContactReading, Observation, Robot
 from app.missions.spec import MissionSpec
@@ -60,7 +62,7 @@ class MissionContext:
     strategy: PlanningStrategy | None
     observation: Observation
     goals: list[GoalState]
-    shape: str = "straight"  # the library shape the body is classified as
+    shape: str = "straight"  # the library shape the body is classified as (or learned)
     joints: tuple[float, float, float] = (0.0, 0.0, 0.0)  # commanded joint angles
     deformed: bool = False  # the joint sensors once disagreed with the command for good
     reshaping: bool = False  # a commanded shape change runs: the joints travel on purpose
@@ -93,6 +95,13 @@ class MissionContext:
     chain_entry_pose: tuple[float, float, float] | None = None
     executed: list[dict[str, Any]] = field(default_factory=list)
     cancel: CancelFlag | None = None  # the mission's cancel flag, passed to the planner
+    # A start shape the library has no lattice for (learned before the first plan); how a
+    # guard has a shape learned (the runner's ``learn_shape``: None, or why it could not); and
+    # how far learning got (done / total primitives, for the state frames).
+    learn: tuple[float, float, float] | None = None
+    learn_shape: Callable[[tuple[float, float, float]], str | None] | None = None
+    learning: dict[str, Any] | None = None
+    learning_settings: LearningSettings = field(default_factory=LearningSettings)
     # the last situation and what it was built from: the guards and the execution ask for
     # it in the same tick, and the remaining goals change seldom
     _situation: tuple[Observation, tuple[Any, ...], Situation] | None = field(
@@ -106,6 +115,12 @@ class MissionContext:
     @property
     def pose(self) -> tuple[float, float, float]:
         return self.observation.pose
+
+    @property
+    def on_lattice(self) -> bool:
+        """Whether the mission plans on the lattice: its body needs a lattice shape within
+        the learning tolerance (else it learns one), not a blend of paper shapes."""
+        return bool(self.spec.goals) and self.spec.planner.domain == "navigation"
 
     def sensed_joints(self) -> tuple[float, float, float]:
         j = self.observation.joints

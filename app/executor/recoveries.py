@@ -33,7 +33,7 @@ from domain import navigation
 from domain.triggers import Recovered
 from primitives.grounding import TICK, Grounded, ground
 from primitives.library import Primitive
-from primitives.shapes import SHAPES
+from primitives.shapes import shape_named
 
 
 class RecoveryNode(py_trees.composites.Composite):
@@ -312,7 +312,7 @@ class Reshape(Recovery):
             return None
         self.target = options[0]
         ctx.shapes_tried.add(ctx.shape)
-        joints = np.asarray(SHAPES[self.target].joints, dtype=float)
+        joints = np.asarray(shape_named(self.target).joints, dtype=float)
         duration = navigation.reshape_duration(
             ctx.joints, joints, TICK, ctx.settings.recovery.reshape_rate
         )
@@ -328,7 +328,7 @@ class Reshape(Recovery):
         ctx.reshaping = False
         previous = ctx.shape
         ctx.shape = self.target
-        a, b, c = (float(v) for v in SHAPES[self.target].joints)
+        a, b, c = (float(v) for v in shape_named(self.target).joints)
         ctx.joints = (a, b, c)
         ctx.event("shape_change", shape=self.target, previous=previous)
 

@@ -19,12 +19,25 @@ import py_trees
 from py_trees.common import Access, Status
 
 from app.executor.context import GoalState, MissionContext, MissionResult
+from app.executor.learning import (
+    LearningSettings,
+    ShapeLearner,
+    lattice_shape,
+    learn_here,
+    learned_event,
+)
 from app.executor.plan_versions import SEARCHES_KEPT
 from app.executor.robot import Robot, head_sensors, sim_robot
 from app.executor.tree import build_tree, snapshot
 from app.missions.spec import MissionSpec
 from domain.knowledge import Goal
-from domain.navigation import HeadView, NavigationSettings, NavigationStrategy, Planner
+from domain.navigation import (
+    HeadView,
+    NavigationSettings,
+    NavigationStrategy,
+    Planner,
+    warm_tables,
+)
 from domain.pyperplan_adapter import CancelFlag
 from domain.reactive_strategy import ReactiveStrategy
 from domain.strategy import PlanningStrategy
@@ -32,14 +45,18 @@ from domain.triggers import GoalsChanged, ObstacleAdded, Resumed
 from domain.world import WorldModel
 from primitives.grounding import TICK
 from primitives.library import Library
+from primitives.shape_learning import LearnedShape, LearningCancelled, LearningStopped
+from primitives.shapes import learned_joints, learned_name
 from sim.controls import FixedShape
 from sim.obstacles import Obstacle
 
 MAX_RETICKS = 4  # ticks within one control tick while the tree only plans
+CANCELLED = "cancelled by request"
 TRAJECTORY_POINTS = 2000
 _ids = itertools.count()
 
 TickHook = Callable[[MissionContext, dict[str, Any]], None]
+LearningHook = Callable[[MissionContext], None]  # learning started or progressed
 
 
 class MissionError(ValueError):
@@ -93,6 +110,9 @@ class MissionRunner:
         cancel: CancelFlag | None = None,
         robot: Robot | None = None,
         searches_kept: int = SEARCHES_KEPT,
+        learning: LearningSettings | None = None,
+        learner: ShapeLearner = learn_here,
+        on_learning: LearningHook | None = None,
     ) -> None:
         if searches_kept < 1:
             raise ValueError(
@@ -115,8 +135,11 @@ class MissionRunner:
             self.robot = robot or sim_robot(spec)
         except ValueError as exc:
             raise MissionError(str(exc)) from exc
-        self.ctx = self._context(spec, library, self.robot)
+        self.learner, self.on_learning = learner, on_learning
+        self.learned: list[LearnedShape] = []  # shapes this mission learned, oldest first
+        self.ctx = self._context(spec, library, self.robot, learning or LearningSettings())
         self.ctx.cancel = self.cancel  # the planner stops its search when it is set
+        self.ctx.learn_shape = self.learn_shape  # a deformation into a shape without a lattice
         self.ctx.searches_kept = searches_kept  # newest plan versions keeping their searches whole
         self._writer = py_trees.blackboard.Client(name="runner", namespace=self.namespace)
         self._writer.register_key("context", access=Access.WRITE)
@@ -125,14 +148,20 @@ class MissionRunner:
         self.tree.setup_with_descendants()
 
     @staticmethod
-    def _context(spec: MissionSpec, library: Library, robot: Robot) -> MissionContext:
+    def _context(
+        spec: MissionSpec, library: Library, robot: Robot, learning: LearningSettings
+    ) -> MissionContext:
         joints = spec.start_joints()
         shape: str | None = spec.shape_name()
-        if shape == "custom":
-            coverage = library.covers(joints)
-            shape = coverage.shape
-            if shape is None:
-                raise MissionError(f"shape: joints {list(joints)}: {coverage.describe()}")
+        learn = False
+        if shape == "custom" or learned_joints(str(shape)) is not None:
+            if spec.goals and spec.planner.domain == "navigation":
+                shape, learn = lattice_shape(library, joints, learning)
+            else:  # the paper's moves and chains blend paper primitives of library shapes
+                coverage = library.covers(joints)
+                shape = coverage.shape
+                if shape is None:
+                    raise MissionError(f"shape: joints {list(joints)}: {coverage.describe()}")
         assert shape is not None
         known = [o for o in spec.world_obstacles() if o.known]
         settings = navigation_settings(spec)
@@ -152,7 +181,10 @@ class MissionRunner:
             settings=settings,
             view=HeadView.of(head_sensors(spec)),
             interval=TICK,
+            learning_settings=learning,
         )
+        if learn:
+            ctx.learn = joints  # learned before the first plan
         for entry in observation.log:
             ctx.event(
                 str(entry.get("kind")), **{k: v for k, v in entry.items() if k not in ("t", "kind")}
@@ -170,9 +202,14 @@ class MissionRunner:
             return True
         ctx = self.ctx
         if self.cancel.is_set():
-            return self._finish("cancelled", "cancelled by request")
+            return self._finish("cancelled", CANCELLED)
         if self.paused:  # model time stands still until resumed
             return False
+        if ctx.learn is not None:  # the start shape, before its first plan
+            joints, ctx.learn = ctx.learn, None
+            why = self.learn_shape(joints)
+            if why is not None:
+                return self._finish("cancelled" if why == CANCELLED else "failed", why)
         for _ in range(MAX_RETICKS):
             ctx.command = None
             self.tree.tick_once()
@@ -203,6 +240,47 @@ class MissionRunner:
                 "failed", f"time limit: {self.spec.time_limit:g} model seconds reached"
             )
         return False
+
+    def learn_shape(self, joints: tuple[float, float, float]) -> str | None:
+        """Learn the lattice set of the shape ``joints`` while the robot stands still (inside
+        the tick that found it: no control tick runs, so no model time passes), then go on with
+        the library it joined, its lattice's tables made; None, or why it could not (cancelled,
+        past the budget, no motion learned: the mission ends with that reason)."""
+        ctx = self.ctx
+        shape = learned_name(joints)
+        shown = ctx.current_action, ctx.grounding
+        ctx.learning = {"shape": shape, "done": 0, "total": 0}
+        ctx.current_action, ctx.grounding = f"learning {shape}", {}
+
+        def progress(done: int, total: int) -> None:
+            ctx.learning = {"shape": shape, "done": done, "total": total}
+            if self.on_learning is not None:
+                self.on_learning(ctx)
+
+        try:
+            learned = self.learner(joints, ctx.learning_settings, self.cancel.is_set, progress)
+        except LearningCancelled:
+            return CANCELLED
+        except LearningStopped as exc:
+            return f"learning: {exc}"
+        finally:
+            ctx.learning = None
+            ctx.current_action, ctx.grounding = shown
+        if not learned.entries:
+            return f"learning: shape {learned.shape}: no lattice motion reached the bar"
+        library = ctx.library.with_entries(learned.entries)
+        self.use_library(library)
+        begun = time.perf_counter()  # the new lattice's tables now, not in the first replan
+        warm_tables(library, ctx.settings, ctx.view, shapes=(learned.shape,))
+        self.learned.append(learned)
+        ctx.event("learned", **learned_event(learned, library, time.perf_counter() - begun))
+        return None
+
+    def use_library(self, library: Library) -> None:
+        """Run on ``library`` from now on (a new version: the old one's entries and more)."""
+        self.ctx.library = library
+        if isinstance(self.ctx.strategy, NavigationStrategy):
+            self.ctx.strategy.library = library
 
     # -- live updates (each a typed trigger: the tree replans on its next tick) -------------------
     @property
@@ -287,6 +365,7 @@ class MissionRunner:
             "sensors": ctx.observation.sensors_dict(),
             "tree": snapshot(self.tree),
             "shape": ctx.shape,
+            "learning": ctx.learning,
         }
 
     def plan_actions(self) -> list[dict[str, Any]]:

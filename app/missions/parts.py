@@ -74,7 +74,8 @@ class GoalSpec(Strict):
 
 
 class JointsShape(Strict):
-    """A body shape given by its joint angles (it must match a library shape)."""
+    """A body shape given by its joint angles (within the joint limits; a goals mission on the
+    lattice learns its lattice primitives first when the library has no shape near it)."""
 
     joints: tuple[Joint, Joint, Joint]
     """joint angles φ1..φ3, radians (±π/2)"""

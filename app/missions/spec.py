@@ -51,7 +51,7 @@ from app.missions.parts import (
 )
 from app.settings import max_obstacles
 from primitives.coverage import covers
-from primitives.shapes import FIXED_SHAPES, SHAPES, shape_named
+from primitives.shapes import FIXED_SHAPES, SHAPES, is_shape, shape_named
 from sim.obstacles import Obstacle, obstacle_from_dict
 from sim.raster import OccupancyRaster
 from sim.robot import DEFAULT_GEOMETRY
@@ -247,14 +247,24 @@ class MissionSpec(BaseModel):
             raise ValueError("goals: give at least one goal, or a chain of primitives")
         if self.goals and self.chain:
             raise ValueError("chain: give goals or a chain of primitives, not both")
-        if isinstance(self.shape, str) and self.shape not in SHAPES:
-            raise ValueError(f"shape: unknown {self.shape!r}; known: {', '.join(SHAPES)}")
-        if (
-            isinstance(self.shape, JointsShape)
-            and covers(self.shape.joints, FIXED_SHAPES).kind == "none"
-        ):
+        if isinstance(self.shape, str) and not is_shape(self.shape):
             raise ValueError(
-                f"shape.joints: {list(self.shape.joints)} is a shape the library does not cover "
+                f"shape: unknown {self.shape!r}; known: {', '.join(SHAPES)}, a learned shape's "
+                'name, or {"joints": [...]}'
+            )
+        limit = DEFAULT_GEOMETRY.max_joint_angle
+        joints = self.start_joints()
+        if max(abs(v) for v in joints) > limit:
+            raise ValueError(
+                f"shape.joints: {list(joints)} is outside the joint limits (±{limit:.2f} rad)"
+            )
+        # A lattice planner learns a shape it lacks; the paper's moves and chains blend the
+        # paper primitives of library shapes, so their shape must be such a blend.
+        lattice = bool(self.goals) and self.planner.domain == "navigation"
+        named = isinstance(self.shape, str) and self.shape in SHAPES
+        if not (lattice or named) and covers(joints, FIXED_SHAPES).kind == "none":
+            raise ValueError(
+                f"shape.joints: {list(joints)} is a shape the library does not cover "
                 f"(no joint-wise match within 0.15 rad of, nor blend of, {', '.join(FIXED_SHAPES)})"
             )
         for i, step in enumerate(self.chain):

@@ -6,13 +6,16 @@ from enum import StrEnum
 
 
 class MissionStatus(StrEnum):
-    """Where a mission is in its life: queued, active (planning ... cancelling) or terminal."""
+    """Where a mission is in its life: queued, active (planning ... cancelling) or terminal.
+    A shape without a lattice goes ``executing → learning → replanning → executing`` (or
+    ``planning → learning → executing`` for the start shape)."""
 
     QUEUED = "queued"
     PLANNING = "planning"
     EXECUTING = "executing"
     PAUSED = "paused"
     REPLANNING = "replanning"
+    LEARNING = "learning"  # the body's shape has no lattice: its primitives are being learned
     CANCELLING = "cancelling"
     SUCCEEDED = "succeeded"
     FAILED = "failed"
@@ -30,6 +33,7 @@ ACTIVE = frozenset(
         MissionStatus.EXECUTING,
         MissionStatus.PAUSED,
         MissionStatus.REPLANNING,
+        MissionStatus.LEARNING,
         MissionStatus.CANCELLING,
     }
 )

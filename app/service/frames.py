@@ -25,6 +25,14 @@ class Frame(BaseModel):
     model_config = ConfigDict(extra="forbid")
 
 
+class LearningProgress(BaseModel):
+    """How far learning the body's shape got (only while the mission is ``learning``)."""
+
+    shape: str = Field(description="the learned shape's name (its joints, rounded)")
+    done: int = Field(description="lattice primitives learned so far")
+    total: int = Field(description="lattice primitives in the set (0 before the first)")
+
+
 class StateFrame(Frame):
     """The robot's state (at most `SCREWSNAKE_WS_RATE` per second; a slow client gets the
     latest only)."""
@@ -39,6 +47,10 @@ class StateFrame(Frame):
         description="behaviour-tree snapshot: name, type, status, feedback, children"
     )
     shape: str = Field(description="the body shape the joints are classified as")
+    learning: LearningProgress | None = Field(
+        default=None,
+        description="while learning the shape's lattice primitives: done / total (else null)",
+    )
 
 
 class EventFrame(Frame):
@@ -87,6 +99,23 @@ class DeformEvent(TimedEvent):
             "sources and weights of a blend, error (rad)"
         ),
     )
+
+
+class LearnedEvent(TimedEvent):
+    """The body's shape had no lattice shape within the tolerance: its lattice primitives
+    were learned (the robot stood still; model time did not run) and joined the library."""
+
+    kind: Literal["learned"]
+    shape: str = Field(description="the learned shape's name (its joints, rounded)")
+    joints: list[float] = Field(description="the joints it was learned for, radians")
+    primitives: int = Field(description="lattice primitives learned (within the library's bar)")
+    failed: list[str] = Field(description="motions that did not reach the bar: left out")
+    rollouts: int = Field(description="simulator rollouts it took")
+    wall_ms: float = Field(description="wall milliseconds it took, motion tables included")
+    tables_ms: float = Field(description="of which the new lattice's motion tables")
+    seed: int = Field(description="the seed, derived from the shape")
+    learner: str = Field(description="the learner (pi2-cma)")
+    library: str = Field(description="the library version the mission runs on from now on")
 
 
 class ShapeChangeEvent(TimedEvent):
@@ -199,6 +228,7 @@ EVENTS = (
     StatusEvent,
     ReplanEvent,
     DeformEvent,
+    LearnedEvent,
     ShapeChangeEvent,
     CollisionEvent,
     GoalReachedEvent,
@@ -210,6 +240,7 @@ Event = Annotated[
     StatusEvent
     | ReplanEvent
     | DeformEvent
+    | LearnedEvent
     | ShapeChangeEvent
     | CollisionEvent
     | GoalReachedEvent
@@ -225,6 +256,7 @@ StreamFrame = (
     | StatusEvent
     | ReplanEvent
     | DeformEvent
+    | LearnedEvent
     | ShapeChangeEvent
     | CollisionEvent
     | GoalReachedEvent

@@ -1,4 +1,5 @@
-"""Learning jobs: one primitive learned in the background, with progress and cancellation."""
+"""Learning jobs: one primitive, or a shape's whole lattice set (which joins the library as
+a new version), learned in the background, with progress and cancellation."""
 
 from __future__ import annotations
 
@@ -8,10 +9,13 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
 
+from app.service.library import SharedLibrary
 from app.service.metrics import Metrics
 from app.store.repo import Store
 from primitives.learners import CancelledError, StopRule, UpdateRecord, make_learner
 from primitives.params import ParameterSpace
+from primitives.shape_learning import LearningCancelled, LearningStopped, learn_shape
+from primitives.shapes import learned_name
 from primitives.task import LearningTask
 
 PROGRESS_SECONDS = 0.2
@@ -26,9 +30,16 @@ class Jobs:
     kept here, where the queue is, and checked with the job's creation under one lock)."""
 
     def __init__(
-        self, store: Store, metrics: Metrics, workers: int = 1, max_queued: int = 16
+        self,
+        store: Store,
+        metrics: Metrics,
+        workers: int = 1,
+        max_queued: int = 16,
+        library: SharedLibrary | None = None,
+        budget: float = 30.0,
     ) -> None:
         self.store, self.metrics, self.max_queued = store, metrics, max_queued
+        self.library, self.budget = library, budget
         self.pool = ThreadPoolExecutor(workers, thread_name_prefix="learn")
         self.cancels: dict[str, threading.Event] = {}
         self.waiting: set[str] = set()  # queued, not started yet
@@ -68,6 +79,9 @@ class Jobs:
         if cancel.is_set():
             return
         self.store.update_job(job_id, status="running")
+        if request.get("joints") is not None:
+            self._learn_shape(job_id, request["joints"], cancel)
+            return
         space = ParameterSpace.for_shape(request["shape"])
         goal = (float(request["goal"][0]), float(request["goal"][1]))
         task = LearningTask(goal, space)
@@ -122,4 +136,43 @@ class Jobs:
         self.store.update_job(
             job_id, status=status, reason=reason, result=summary, progress=progress_now
         )
+        self.metrics.jobs.labels(status).inc()
+
+    def _learn_shape(self, job_id: str, joints: list[float], cancel: threading.Event) -> None:
+        """A shape's lattice set, into the library (unless that shape is there already)."""
+        name = learned_name(joints)
+        library = self.library
+        if library is not None and name in library.library.lattice_shapes():
+            result = {"shape": name, "learned": False, "library": library.version}
+            self.store.update_job(
+                job_id, status="succeeded", reason="the library has this shape", result=result
+            )
+            self.metrics.jobs.labels("succeeded").inc()
+            return
+        last = [0.0]
+
+        def progress(done: int, total: int) -> None:
+            if time.perf_counter() - last[0] >= PROGRESS_SECONDS or done == total:
+                last[0] = time.perf_counter()
+                self.store.update_job(job_id, progress={"done": done, "total": total})
+
+        try:
+            learned = learn_shape(
+                joints, budget=self.budget, cancelled=cancel.is_set, progress=progress
+            )
+        except LearningCancelled:
+            self.store.update_job(job_id, status="cancelled", reason="cancelled by request")
+            self.metrics.jobs.labels("cancelled").inc()
+            return
+        except LearningStopped as exc:
+            self.store.update_job(job_id, status="failed", reason=f"learning: {exc}")
+            self.metrics.jobs.labels("failed").inc()
+            return
+        summary: dict[str, Any] = {**learned.summary(), "learned": True}
+        if library is not None and learned.entries:
+            stored, now = library.add(name, learned.entries, {"job_id": job_id})
+            summary |= {"learned": stored, "library": now.version[:12]}
+        status = "succeeded" if learned.entries else "failed"
+        reason = "" if learned.entries else f"shape {name}: no lattice motion reached the bar"
+        self.store.update_job(job_id, status=status, reason=reason, result=summary)
         self.metrics.jobs.labels(status).inc()

@@ -78,7 +78,21 @@ class Ended:
     state: dict[str, Any] | None = None
 
 
-WorkerMessage = Transition | SaveState | Publish | Replanned | PlanMade | TrajectoryDone | Ended
+@dataclass(frozen=True)
+class Learned:
+    """The mission learned a shape's lattice set: stored once, as a new library version, for
+    every later mission (``app.service.library``)."""
+
+    shape: str
+    entries: str  # the entries as a JSON list, as in the library file
+    # The learned shapes of the library the mission now runs on, in its order (the store's,
+    # then this one): the version its ``learned`` event names.
+    shapes: tuple[str, ...]
+
+
+WorkerMessage = (
+    Transition | SaveState | Publish | Replanned | PlanMade | TrajectoryDone | Learned | Ended
+)
 
 
 # -- supervisor -> worker (live updates) -------------------------------------------------------
@@ -126,6 +140,10 @@ class Job:
     # The stored maps the mission names (``app.missions.maps.StoredMap`` by id): the worker
     # validates the request with them, and reads no store.
     maps: dict[str, Any] = field(default_factory=dict)
+    # The shapes learned so far (``app.service.library``: (shape, entries JSON) in the
+    # stored order): the worker's library gains those it lacks, so no shape is learned twice.
+    learned: tuple[tuple[str, str], ...] = ()
+    learn_budget: float = 30.0  # wall seconds to learn a shape's lattice set
 
 
 @dataclass(frozen=True)

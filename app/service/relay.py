@@ -8,6 +8,7 @@ supervisor's mission threads: frames reach the hub through the event loop.
 from __future__ import annotations
 
 import asyncio
+import json
 import logging
 import threading
 import time
@@ -27,8 +28,10 @@ from app.service.frames import (
     parse_frame,
 )
 from app.service.hub import Frame, Hub
+from app.service.library import SharedLibrary
 from app.service.messages import (
     Ended,
+    Learned,
     PlanMade,
     Publish,
     Replanned,
@@ -40,6 +43,7 @@ from app.service.messages import (
 from app.service.metrics import Metrics
 from app.settings import Settings
 from app.store.repo import Store
+from primitives.library import Primitive
 
 log = logging.getLogger("screwsnake.supervisor")
 PRUNE_SECONDS = 3600.0  # wall seconds between retention sweeps
@@ -48,8 +52,16 @@ PRUNE_SECONDS = 3600.0  # wall seconds between retention sweeps
 class Relay:
     """Stores, then broadcasts, what workers report; ends missions."""
 
-    def __init__(self, store: Store, hub: Hub, settings: Settings, metrics: Metrics) -> None:
+    def __init__(
+        self,
+        store: Store,
+        hub: Hub,
+        settings: Settings,
+        metrics: Metrics,
+        library: SharedLibrary | None = None,
+    ) -> None:
         self.store, self.hub, self.settings, self.metrics = store, hub, settings, metrics
+        self.library = library  # where learned shapes are stored (none: they are dropped)
         self.loop: asyncio.AbstractEventLoop | None = None  # set when the service starts
         self.trees: dict[str, dict[str, Any]] = {}  # running mission -> latest tree snapshot
         self.shutting_down = threading.Event()
@@ -158,6 +170,11 @@ class Relay:
             )
             if message.version > 1:
                 self.transition(mission_id, MissionStatus.EXECUTING)
+        elif isinstance(message, Learned):
+            if self.library is not None:
+                entries = [Primitive.model_validate(e) for e in json.loads(message.entries)]
+                self.library.add(message.shape, entries, {"mission_id": mission_id})
+                self.library.record(message.shapes)  # the version the mission's event names
         elif isinstance(message, TrajectoryDone):
             self.store.save_trajectory(mission_id, message.points, message.world)
         elif isinstance(message, Ended):

@@ -26,6 +26,7 @@ from app.missions.maps import referenced
 from app.missions.status import TERMINAL, MissionStatus
 from app.service.frames import EndFrame, StatusEvent
 from app.service.hub import Hub
+from app.service.library import SharedLibrary
 from app.service.live import LiveMission
 from app.service.maps import stored_maps
 from app.service.messages import Ended, Job, Update
@@ -35,7 +36,6 @@ from app.service.reconcile import reconcile
 from app.service.relay import Relay
 from app.settings import Settings
 from app.store.repo import Store
-from primitives.library import Library
 
 log = logging.getLogger("screwsnake.supervisor")
 POLL_SECONDS = 0.5
@@ -56,11 +56,13 @@ class QueueFull(Exception):
 
 class Supervisor:
     def __init__(
-        self, store: Store, library: Library, hub: Hub, settings: Settings, metrics: Metrics
+        self, store: Store, library: SharedLibrary, hub: Hub, settings: Settings, metrics: Metrics
     ) -> None:
-        self.store, self.library, self.hub = store, library, hub
+        self.store, self.hub = store, hub
+        self.shared = library  # jobs carry the shapes learned since the workers started
+        self.library = library.library  # what the workers start with
         self.settings, self.metrics = settings, metrics
-        self.relay = Relay(store, hub, settings, metrics)
+        self.relay = Relay(store, hub, settings, metrics, library)
         self.relay.on_status = self._status_stored
         self.workers: list[Worker] = []  # the pool, started with the service
         # A thread per running mission (at most max_running), a daemon: one stuck in a call
@@ -350,7 +352,14 @@ class Supervisor:
             # Not under the lock (a Ray actor may still be starting): a cancel meanwhile is
             # remembered in cancel_asked and passed on once the worker runs this mission.
             maps = stored_maps(self.store, referenced(row.request))
-            job = Job(mission_id, row.request, self.settings.wall_limit, maps)
+            job = Job(
+                mission_id,
+                row.request,
+                self.settings.wall_limit,
+                maps,
+                self.shared.learned(),
+                self.settings.learn_budget,
+            )
             try:
                 worker.begin(job)
             except WorkerLost:  # it died while idle (e.g. a lost Ray node): once more, afresh

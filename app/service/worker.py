@@ -11,6 +11,7 @@ in order. The channels are duck-typed: multiprocessing queues and events in a po
 from __future__ import annotations
 
 import contextlib
+import json
 import os
 import queue as queue_module
 import socket
@@ -22,6 +23,8 @@ from typing import Any, Protocol
 
 import py_trees
 
+from app.executor.context import MissionContext
+from app.executor.learning import LearningSettings
 from app.executor.runner import MissionError, MissionRunner, UpdateRefused
 from app.executor.warm import unfreeze_mission
 from app.missions.spec import MissionSpec, body_overlap
@@ -32,6 +35,7 @@ from app.service.messages import (
     Addressed,
     Ended,
     Job,
+    Learned,
     Pause,
     PlanMade,
     Publish,
@@ -47,7 +51,7 @@ from app.service.messages import (
 from app.service.world_history import WorldHistory
 from domain.navigation import planner as navigation_planner
 from domain.navigation.lattice import cache as motion_cache
-from primitives.library import Library
+from primitives.library import Library, Primitive
 from sim.obstacles import obstacle_from_dict
 
 
@@ -140,6 +144,42 @@ def budget_caches(memory: int) -> int:
     rows = max(1000, min(DEFAULT_ROWS, int(memory * CACHE_SHARE) // (parts * ROW_BYTES)))
     motion_cache.ROWS_LIMIT = rows
     return rows
+
+
+# The learned shapes this process has parsed, and the library last made with them (one object
+# while nothing new was learned: the motion tables are kept per library object).
+_PARSED: dict[str, tuple[Primitive, ...]] = {}
+_LIBRARY: dict[str, Any] = {}
+
+
+def library_for(base: Library, learned: tuple[tuple[str, str], ...]) -> Library:
+    """``base`` with the learned shapes it lacks, in the store's order (each parsed once)."""
+    if not learned:
+        return base
+    key = (id(base), tuple(shape for shape, _ in learned))
+    if _LIBRARY.get("key") == key:
+        library: Library = _LIBRARY["library"]
+        return library
+    for shape, text in learned:
+        if shape not in _PARSED:
+            _PARSED[shape] = tuple(Primitive.model_validate(e) for e in json.loads(text))
+    library = base.with_entries(e for shape, _ in learned for e in _PARSED[shape])
+    _LIBRARY.update(key=key, library=library)
+    return library
+
+
+def learned_messages(runner: MissionRunner, sent: int, known: tuple[str, ...]) -> list[Learned]:
+    """A ``Learned`` message per shape the mission learned since ``sent`` (``known``: the
+    learned shapes its library started with)."""
+    out = []
+    shapes = list(known)
+    for i, learned in enumerate(runner.learned):
+        shapes.append(learned.shape)
+        if i >= sent:
+            _PARSED.setdefault(learned.shape, learned.entries)
+            text = "[" + ",".join(e.model_dump_json() for e in learned.entries) + "]"
+            out.append(Learned(learned.shape, text, tuple(shapes)))
+    return out
 
 
 def mission_state(runner: MissionRunner) -> dict[str, Any]:
@@ -352,17 +392,43 @@ def _run(
     mission_id, wall_limit = job.mission_id, job.wall_limit
     spec = MissionSpec.model_validate(job.request, context={"maps": job.maps})
     queue.put(Transition(MissionStatus.PLANNING, where()))
+    period = 1.0 / ws_rate
+    last_state = last_save = 0.0
+    learning_since: float | None = None  # wall time learning began (None: not learning)
+    versions, events_sent = 0, 0
+
+    def on_learning(ctx: MissionContext) -> None:
+        """Learning began or got on: the ``learning`` status once, then state frames with
+        its progress (at the websocket rate)."""
+        nonlocal last_state, learning_since, events_sent, versions
+        if learning_since is None:
+            learning_since = time.perf_counter()
+            for message in news(runner, events_sent, versions):  # the deformation first
+                queue.put(message)
+            events_sent, versions = len(ctx.events), ctx.plan_version
+            shape = ctx.learning["shape"] if ctx.learning else ctx.shape
+            queue.put(Transition(MissionStatus.LEARNING, f"learning shape {shape}"))
+        if time.perf_counter() - last_state >= period:
+            queue.put(Publish({"type": "state", **runner.snapshot()}))
+            last_state = time.perf_counter()
+
     try:
-        runner = MissionRunner(spec, library, mission_id=mission_id.replace("-", ""), cancel=cancel)
+        runner = MissionRunner(
+            spec,
+            library_for(library, job.learned),
+            mission_id=mission_id.replace("-", ""),
+            cancel=cancel,
+            learning=LearningSettings(budget=job.learn_budget),
+            on_learning=on_learning,
+        )
     except MissionError as exc:
         queue.put(Ended(MissionStatus.FAILED, str(exc)))
         return
+    known = tuple(shape for shape, _ in job.learned)
     started = time.perf_counter()
-    last_state = last_save = 0.0
-    versions, events_sent, executing = 0, 0, False
+    executing, learned_sent = False, 0
     history = WorldHistory()  # what the replay shows of the world model at each model time
     paused_since: float | None = None
-    period = 1.0 / ws_rate
     while True:
         for update in pending(updates, mission_id):
             for message in apply_update(runner, update):
@@ -374,6 +440,12 @@ def _run(
             paused_since = None
         done = runner.step()
         ctx = runner.ctx
+        if learning_since is not None:  # model time stood still: pacing ignores the learning
+            started += time.perf_counter() - learning_since
+            learning_since = None
+        for message in learned_messages(runner, learned_sent, known):
+            queue.put(message)
+        learned_sent = len(runner.learned)
         history.observe(ctx.t, ctx.world)
         for message in news(runner, events_sent, versions):
             queue.put(message)

@@ -3,10 +3,10 @@ import { Camera, attachControls, drawScene, legendHtml, primitiveOf } from "/sta
 
 const $ = (id) => document.getElementById(id);
 const TERMINAL = ["succeeded", "failed", "cancelled"];
-const STATUSES = ["queued", "planning", "executing", "replanning", "paused", "cancelling", "succeeded", "failed", "cancelled"];
+const STATUSES = ["queued", "planning", "executing", "replanning", "learning", "paused", "cancelling", "succeeded", "failed", "cancelled"];
 // Reasons worth a user's eye in the status bar; the others (which worker took a mission, an
 // empty reason after a replan) stay in the transitions.
-const REASONED = new Set(["replanning", "paused", "cancelling", ...TERMINAL]);
+const REASONED = new Set(["replanning", "learning", "paused", "cancelling", ...TERMINAL]);
 const KEY = "screwsnake-api-key";
 const WORLD_POLL_MS = 2000, LIST_POLL_MS = 3000, PENDING_MS = 5000;
 

@@ -5,7 +5,17 @@ from __future__ import annotations
 from datetime import UTC, datetime
 from typing import Any
 
-from sqlalchemy import JSON, DateTime, Float, ForeignKey, Integer, LargeBinary, String, Text
+from sqlalchemy import (
+    JSON,
+    DateTime,
+    Float,
+    ForeignKey,
+    Integer,
+    LargeBinary,
+    String,
+    Text,
+    UniqueConstraint,
+)
 from sqlalchemy.engine import Dialect
 from sqlalchemy.orm import DeclarativeBase, Mapped, mapped_column
 from sqlalchemy.types import TypeDecorator
@@ -116,6 +126,26 @@ class LibraryVersionRow(Base):
     entries: Mapped[int] = mapped_column(Integer)
     source: Mapped[str] = mapped_column(Text)
     loaded_at: Mapped[datetime] = mapped_column(UTCDateTime)
+
+
+class LearnedPrimitiveRow(Base):
+    """A lattice primitive learned by the service (a mission or a learning job) for a shape
+    the bundled library lacks, with its provenance. The library the service runs on is the
+    bundled file plus these rows, in ``id`` order; the file itself is never written."""
+
+    __tablename__ = "learned_primitives"
+    __table_args__ = (UniqueConstraint("primitive", name="uq_learned_primitives_primitive"),)
+    id: Mapped[int] = mapped_column(Integer, primary_key=True, autoincrement=True)
+    shape: Mapped[str] = mapped_column(String(64), index=True)
+    primitive: Mapped[str] = mapped_column(String(64))
+    entry: Mapped[dict[str, Any]] = mapped_column(JSON)  # the library entry, as in the file
+    mission_id: Mapped[str | None] = mapped_column(String(36), nullable=True)
+    job_id: Mapped[str | None] = mapped_column(String(36), nullable=True)
+    seed: Mapped[int] = mapped_column(Integer)
+    learner: Mapped[str] = mapped_column(String(40))
+    rollouts: Mapped[int] = mapped_column(Integer)
+    library_version: Mapped[str] = mapped_column(String(64))  # the version it joined
+    created_at: Mapped[datetime] = mapped_column(UTCDateTime)
 
 
 class JobRow(Base):

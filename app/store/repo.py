@@ -26,6 +26,7 @@ from app.store.db import DatabaseFile
 from app.store.models import (
     BlobRow,
     JobRow,
+    LearnedPrimitiveRow,
     LibraryVersionRow,
     MapRow,
     MissionRow,
@@ -456,6 +457,50 @@ class Store:
                 )
                 s.commit()
         return digest
+
+    def add_learned(
+        self,
+        shape: str,
+        entries: Sequence[dict[str, Any]],
+        provenance: dict[str, Any],
+        library_version: str,
+    ) -> bool:
+        """Store a learned shape's entries (each as in the library file) once; False, with
+        nothing written, when that shape is stored already (another learner was first)."""
+        with self._writing(), self.sessions() as s:
+            taken = select(LearnedPrimitiveRow.id).where(LearnedPrimitiveRow.shape == shape)
+            if s.scalar(taken.limit(1)) is not None:
+                return False
+            stamp = now()
+            for entry in entries:
+                s.add(
+                    LearnedPrimitiveRow(
+                        shape=shape,
+                        primitive=str(entry["id"]),
+                        entry=entry,
+                        mission_id=provenance.get("mission_id"),
+                        job_id=provenance.get("job_id"),
+                        seed=int(entry["seed"]),
+                        learner=str(entry["learner"]),
+                        rollouts=int(entry["rollouts"]),
+                        library_version=library_version,
+                        created_at=stamp,
+                    )
+                )
+            try:
+                s.commit()
+            except IntegrityError:  # a primitive of that shape got there first
+                s.rollback()
+                return False
+        return True
+
+    def learned(self, shape: str | None = None) -> list[LearnedPrimitiveRow]:
+        """Learned primitives (of one shape), in the order they were stored."""
+        query = select(LearnedPrimitiveRow).order_by(LearnedPrimitiveRow.id)
+        if shape is not None:
+            query = query.where(LearnedPrimitiveRow.shape == shape)
+        with self.sessions() as s:
+            return list(s.scalars(query))
 
     def create_job(self, kind: str, request: dict[str, Any]) -> JobRow:
         with self._writing(), self.sessions() as s:

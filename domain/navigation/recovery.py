@@ -25,7 +25,7 @@ from domain.navigation.repair import leg_reach
 from domain.navigation.settings import NavigationSettings, RecoverySettings
 from domain.world import WorldModel
 from primitives.library import Library, Primitive
-from primitives.shapes import SHAPES
+from primitives.shapes import shape_named
 from sim.robot import Array
 from sim.world import footprint
 
@@ -189,15 +189,19 @@ def reshape_options(
     so it reaches nothing the straight body cannot."""
     here = np.asarray(joints, dtype=float)
     others = sorted(
-        (name for name in library.lattice_shapes() if name != shape and not SHAPES[name].periodic),
-        key=lambda name: float(np.max(np.abs(np.asarray(SHAPES[name].joints) - here))),
+        (
+            name
+            for name in library.lattice_shapes()
+            if name != shape and not shape_named(name).periodic
+        ),
+        key=lambda name: float(np.max(np.abs(np.asarray(shape_named(name).joints) - here))),
     )
     grid = LatticeGrid(world.bounds, settings)
     lethal = world.lethal_clearance()
     start = np.asarray(pose, dtype=float)
     out = []
     for name in others:
-        target = np.asarray(SHAPES[name].joints, dtype=float)
+        target = np.asarray(shape_named(name).joints, dtype=float)
         bodies = [
             (start, here + s * (target - here)) for s in np.linspace(0.0, 1.0, RESHAPE_SAMPLES)
         ]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 
 from domain.navigation.feasibility import Feasibility, body_rows
@@ -11,20 +13,23 @@ from domain.navigation.lattice.motions import HeadView, motion_table
 from domain.navigation.settings import NavigationSettings
 from domain.navigation.strategy import held_joints
 from primitives.library import Library
-from primitives.shapes import SHAPES
+from primitives.shapes import shape_named
 from sim.world import Bounds
 
 
 def warm_tables(
-    library: Library, settings: NavigationSettings, view: HeadView | None = None
+    library: Library,
+    settings: NavigationSettings,
+    view: HeadView | None = None,
+    shapes: Sequence[str] | None = None,
 ) -> int:
-    """Every library shape's motion table with its kernel forms and resting-body rows, and
-    the feasibility flood compiled once: what a reshape or a first plan would otherwise pay
-    for inside a mission. Returns how many tables it made."""
+    """Every library shape's motion table (or only ``shapes``': a shape just learned) with its
+    kernel forms and resting-body rows, and the feasibility flood compiled once: what a reshape
+    or a first plan would otherwise pay for inside a mission. Returns how many tables it made."""
     grid = LatticeGrid(Bounds(-1.0, 1.0, -1.0, 1.0), settings)
     made = 0
-    for shape in library.lattice_shapes():
-        table = motion_table(library, shape, held_joints(SHAPES[shape].joints), settings, view)
+    for shape in library.lattice_shapes() if shapes is None else shapes:
+        table = motion_table(library, shape, held_joints(shape_named(shape).joints), settings, view)
         if table is None:
             continue
         made += 1

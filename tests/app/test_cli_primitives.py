@@ -59,3 +59,24 @@ def test_library_commands_report_bad_files(tmp_path: Path) -> None:
     bad.write_text("{truncated")
     result = runner.invoke(cli, ["library", "show", str(bad)])
     assert result.exit_code == 2 and "not valid JSON" in result.output
+
+
+def test_library_learn_shape_saves_the_library_with_the_shape_and_checks_the_joints(
+    tmp_path: Path,
+) -> None:
+    from primitives.library import bundled_library_path, load_bundled
+
+    bundled = bundled_library_path().read_bytes()
+    out = tmp_path / "learned.json"
+    result = runner.invoke(
+        cli, ["library", "learn-shape", "--joints", "0.9,-0.3,0.6", "--out", str(out), "--json"]
+    )
+    assert result.exit_code == 0, result.output
+    grown = Library.load(out)
+    learned = grown.lattice("body-p090-m030-p060")
+    assert learned and len(grown) == len(load_bundled()) + len(learned)
+    assert grown.lattice_covers((0.9, -0.3, 0.6)).shape == "body-p090-m030-p060"
+    assert bundled_library_path().read_bytes() == bundled  # the bundled file is never written
+    bad = runner.invoke(cli, ["library", "learn-shape", "--joints", "0,0,1.55"])
+    assert bad.exit_code == 2 and "joint limits" in bad.output
+    assert runner.invoke(cli, ["library", "learn-shape", "--joints", "0,x"]).exit_code != 0

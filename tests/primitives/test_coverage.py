@@ -49,26 +49,27 @@ def test_the_tolerance_is_a_setting() -> None:
     assert LIB.covers((0.6, -0.5, 0.5), tolerance=0.05).kind != "library"
 
 
-def test_a_mission_starting_in_a_blended_shape_runs_its_nearest_library_shape() -> None:
+def test_a_blended_start_shape_learns_on_the_lattice_and_blends_in_the_papers_moves() -> None:
     from app.executor.runner import MissionError, MissionRunner
     from app.missions.spec import MissionSpec
 
     base = {"goals": [{"x": -1, "y": 0}], "bounds": {"xmin": -3, "xmax": 3, "ymin": -3, "ymax": 3}}
-    ok = MissionRunner(
-        MissionSpec.model_validate({**base, "shape": {"joints": [0.25, -0.25, -0.05]}}), LIB
-    )
-    assert ok.ctx.shape in ("straight", "semi-zigzag")
-    # A shape no library shape covers is refused when the mission is posted, naming the field.
+    blend = {"shape": {"joints": [0.25, -0.25, -0.05]}}
+    # On the lattice the nearest shape's motions would land elsewhere: the shape is learned.
+    lattice = MissionRunner(MissionSpec.model_validate({**base, **blend}), LIB)
+    assert lattice.ctx.shape == "body-p025-m025-m005" and lattice.ctx.learn is not None
+    # The paper's moves blend paper primitives: the nearest library shape runs.
+    reactive = {**base, **blend, "planner": {"domain": "reactive"}}
+    ok = MissionRunner(MissionSpec.model_validate(reactive), LIB)
+    assert ok.ctx.shape in ("straight", "semi-zigzag") and ok.ctx.learn is None
+    # A shape no library shape covers is refused there when posted, naming the field ...
     with pytest.raises(ValidationError, match=r"shape\.joints"):
-        MissionSpec.model_validate({**base, "shape": {"joints": [1.2, 1.2, 1.2]}})
+        MissionSpec.model_validate({**reactive, "shape": {"joints": [1.2, 1.2, 1.2]}})
+    # ... as is one outside the joint limits anywhere.
+    with pytest.raises(ValidationError, match=r"shape\.joints.*joint limits"):
+        MissionSpec.model_validate({**base, "shape": {"joints": [1.55, 0.0, 0.0]}})
     # ... and by the runner for a library that lacks the shapes (a spec built without checks).
-    spec = MissionSpec.model_validate(base).model_copy(
-        update={
-            "shape": MissionSpec.model_validate(
-                {**base, "shape": {"joints": [0.25, -0.25, -0.05]}}
-            ).shape
-        }
-    )
+    spec = MissionSpec.model_validate(reactive)
     only_arc = Library([e for e in LIB if e.shape == "arc"])
     with pytest.raises(MissionError, match="not interpolable"):
         MissionRunner(spec, only_arc)

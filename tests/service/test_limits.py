@@ -210,7 +210,11 @@ def test_tree_is_freed_from_memory_after_the_end_and_kept_in_the_store(tmp_path:
             },
             "chain.0.until.sensor",
         ),
-        ({**GOAL, "shape": {"joints": [1.2, -1.2, 1.2]}}, "shape.joints"),
+        (  # the paper's moves blend library shapes' primitives: this shape is no blend
+            {**GOAL, "planner": {"domain": "reactive"}, "shape": {"joints": [1.2, -1.2, 1.2]}},
+            "shape.joints",
+        ),
+        ({**GOAL, "shape": {"joints": [1.55, 0.0, 0.0]}}, "shape.joints"),  # past the joint limits
     ],
 )
 def test_what_would_fail_later_is_422_at_post(tmp_path: Path, body: dict, field: str) -> None:
