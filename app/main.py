@@ -15,6 +15,7 @@ from fastapi_offline import FastAPIOffline
 from app.api import (
     docs,
     errors,
+    exports,
     faults,
     health,
     jobs,
@@ -134,6 +135,7 @@ def create_app(settings: Settings | None = None) -> FastAPI:
         app.add_middleware(ServerTiming)
     for module in (
         missions,
+        exports,
         maps,
         updates,
         replay,

@@ -97,6 +97,11 @@ class Settings(BaseModel):
     # Body bytes of `POST /maps` (its own limit: a 1000 x 1000 map in base64 is 1.3 MB, past the
     # missions' `max_body`); larger is 413 before the body is read.
     max_map_body: int = Field(20_000_000, ge=1024, le=1_000_000_000)
+    # PDDL text bytes one answer may hold: a plan version's problem (GET /missions/{id}/pddl/
+    # {version}) larger than this is 413; GET /missions/{id}/pddl holds problems inline up to
+    # `pddl_inline` bytes in all, and names where the others are.
+    max_pddl_answer: int = Field(64_000_000, ge=1024, le=4_000_000_000)
+    pddl_inline: int = Field(4_000_000, ge=0, le=4_000_000_000)
     wall_limit: float = Field(3600.0, gt=0, le=7 * 86400)  # wall-clock seconds per mission
     min_speed: float = Field(0.01, gt=0, le=10_000)  # slowest real-time pacing (0 = unpaced)
     reconcile_seconds: float = Field(30.0, gt=0, le=86400)  # how often lost missions are ended

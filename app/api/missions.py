@@ -16,7 +16,6 @@ from app.api.limits import check_mission
 from app.api.schemas import (
     MissionOut,
     MissionPage,
-    PddlOut,
     PlanOut,
     PoseOut,
     ReplanOut,
@@ -257,15 +256,6 @@ def get_trajectory(mission_id: MissionId, svc: Svc) -> TrajectoryOut:
     if points is None:
         points = list(svc.hub.trails.get(mission_id, []))
     return TrajectoryOut(mission=mission_id, points=points)
-
-
-@router.get("/missions/{mission_id}/pddl", response_model=list[PddlOut], responses=responses(404))
-def get_pddl(mission_id: MissionId, svc: Svc) -> list[PddlOut]:
-    found(svc, mission_id)
-    return [
-        PddlOut(version=p.version, domain=p.domain_pddl, problem=p.problem_pddl, plan=p.plan)
-        for p in svc.store.plans(mission_id)
-    ]
 
 
 @router.get("/missions/{mission_id}/tree", responses=responses(404))

@@ -169,13 +169,13 @@ def plan_message(runner: MissionRunner, index: int) -> PlanMade:
     """The plan message of plan version ``index + 1``."""
     ctx = runner.ctx
     entry = ctx.pddl[index]
-    actions = runner.plan_actions() if entry["version"] == ctx.plan_version else []
+    actions = runner.plan_actions() if entry.version == ctx.plan_version else []
     return PlanMade(
-        entry["version"],
+        entry.version,
         ctx.spec.planner.domain,
-        entry["domain"],
-        entry["problem"],
-        entry["plan"],
+        entry.domain,
+        entry.source(),
+        entry.plan,
         actions,
     )
 
