@@ -23,8 +23,12 @@ from app.store.models import BlobRow
 
 CODEC = "lzma2"  # raw LZMA2, no container: ~250 bytes less per blob than .xz
 STORED = "stored"  # bytes kept as they came: their writer compressed them (PDDL sources)
-PRESET = 9
+PRESET = 9  # the decoder's: its 64 MiB dictionary reads any blob written
 FILTERS = [{"id": lzma.FILTER_LZMA2, "preset": PRESET}]  # decoding: 64 MiB covers any blob
+# The encoder's preset: the fastest. A mission's trajectory (85 kB of JSON) packs in 1.3 ms to
+# 8.5 kB, against 33 ms to 7.2 kB at preset 9: the store's writes are on the way from a
+# mission's last tick to its stored end.
+PACK_PRESET = 0
 MIN_DICT = 4096  # LZMA2's smallest dictionary
 
 
@@ -39,7 +43,8 @@ def dictionary_size(raw: bytes) -> int:
 
 
 def pack(raw: bytes) -> bytes:
-    filters = [{"id": lzma.FILTER_LZMA2, "preset": PRESET, "dict_size": dictionary_size(raw)}]
+    dict_size = dictionary_size(raw)
+    filters = [{"id": lzma.FILTER_LZMA2, "preset": PACK_PRESET, "dict_size": dict_size}]
     return lzma.compress(raw, format=lzma.FORMAT_RAW, filters=filters)
 
 
