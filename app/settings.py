@@ -132,6 +132,10 @@ class Settings(BaseModel):
     # Seconds the service's shutdown may take: running missions are asked to stop, then their
     # workers are killed, stuck or not.
     shutdown_seconds: float = Field(10.0, gt=0, le=3600)
+    # Seconds a thread of the server may hold the GIL while another waits for it
+    # (`sys.setswitchinterval`): short, so the event loop waits little behind the threads
+    # writing the store and building large answers.
+    switch_interval: float = Field(0.0005, ge=0.0001, le=0.1)
     # Processes validating request bodies and live updates (and running POST /simulate) off
     # the event loop.
     validation_workers: int = Field(default_factory=lambda: min(cores(), 2), ge=1, le=64)
