@@ -1,4 +1,5 @@
-"""What a mission exports: its plan versions' PDDL (``/pddl``, ``/pddl/{version}``).
+"""What a mission exports: its plan versions' PDDL (``/pddl``, ``/pddl/{version}``) and its
+world model as a map, as ROS's map_saver writes one (``/world.yaml``, ``/world.pgm``).
 
 A worker stores what regenerates each version's problem, never its text (tens of megabytes for
 a long tour): the text is rendered when asked, in the service's process pool, never on the
@@ -6,6 +7,10 @@ event loop. ``GET /missions/{id}/pddl`` holds the problems inline while they fit
 ``SCREWSNAKE_PDDL_INLINE`` bytes in all and says where the others are; ``GET
 /missions/{id}/pddl/{version}`` answers one problem as text, gzip-compressed when the client
 accepts it, streamed, up to ``SCREWSNAKE_MAX_PDDL_ANSWER`` bytes (413 beyond).
+
+The map is the world model as the worker last saved it (about once a second, and at the end):
+occupied (known obstacles and maps, sensed occupancy), free (observed), unknown; the YAML names
+its image ``world.pgm``, beside it (``app.service.world_map``).
 """
 
 from __future__ import annotations
@@ -14,13 +19,14 @@ from collections.abc import AsyncIterator, Callable
 from typing import Annotated, Any, Literal, TypeVar
 
 from fastapi import APIRouter, Header, Path, Query
-from fastapi.responses import StreamingResponse
+from fastapi.responses import PlainTextResponse, Response, StreamingResponse
 from starlette.concurrency import run_in_threadpool
 
 from app.api.deps import MissionId, Services, Svc
 from app.api.errors import ApiError, responses
 from app.api.schemas import PddlOut
 from app.executor.plan_versions import SourceUnreadable
+from app.service import world_map
 from app.service.exports import TooLarge, answer, inline_texts
 from app.store.repo import StoredPlan
 
@@ -133,3 +139,39 @@ async def get_pddl_version(
     return StreamingResponse(
         pieces(out.data), media_type="text/plain; charset=utf-8", headers=headers
     )
+
+
+def saved_map(svc: Services, mission_id: str) -> dict[str, Any]:
+    """The world model's map as the mission last saved it (404: no mission, or none yet)."""
+    row = svc.store.get_mission(mission_id)
+    if row is None:
+        raise ApiError(404, f"mission {mission_id} not found")
+    packed: dict[str, Any] | None = (row.state or {}).get("map")
+    if packed is None:
+        raise ApiError(404, f"mission {mission_id} has no world model yet (it has not run)")
+    return packed
+
+
+@router.get(
+    "/missions/{mission_id}/world.yaml",
+    response_class=PlainTextResponse,
+    responses={200: {"content": {"application/x-yaml": {}}}, **responses(404)},
+)
+async def get_world_yaml(mission_id: MissionId, svc: Svc) -> PlainTextResponse:
+    """The world model as map_saver's YAML (map_server's parameters; its image is
+    `world.pgm`, beside it): as last saved while the mission runs, as it ended after."""
+    packed = await run_in_threadpool(saved_map, svc, mission_id)
+    return PlainTextResponse(world_map.yaml(packed, "world.pgm"), media_type="application/x-yaml")
+
+
+@router.get(
+    "/missions/{mission_id}/world.pgm",
+    response_class=Response,
+    responses={200: {"content": {"image/x-portable-graymap": {}}}, **responses(404, 503)},
+)
+async def get_world_pgm(mission_id: MissionId, svc: Svc) -> Response:
+    """The world model as map_saver's image: an 8-bit PGM, row 0 the top, occupied 0, free
+    254, unknown 205. Written off the event loop."""
+    packed = await run_in_threadpool(saved_map, svc, mission_id)
+    image = await svc.validation.run(world_map.pgm, packed)
+    return Response(image, media_type="image/x-portable-graymap")

@@ -26,6 +26,7 @@ from app.executor.runner import MissionError, MissionRunner, UpdateRefused
 from app.executor.warm import unfreeze_mission
 from app.missions.spec import MissionSpec, body_overlap
 from app.missions.status import MissionStatus
+from app.service import world_map
 from app.service.messages import (
     AddGoal,
     AddObstacle,
@@ -160,6 +161,8 @@ def mission_state(runner: MissionRunner) -> dict[str, Any]:
         "sensed": world.get("sensed", []),
         "contacts": world.get("contact", []),
         "resolution": world.get("resolution"),
+        # the world model as map_saver would write it (GET /missions/{id}/world.yaml, .pgm)
+        "map": world_map.pack(ctx.world, world["origin"], world["resolution"]),
         # For the viewer's replay and the event log (GET /missions/{id}/events): every event
         # (the newest EVENTS_KEPT), and the model time at which each plan version was made
         # (index = version - 1).
