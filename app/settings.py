@@ -97,6 +97,11 @@ class Settings(BaseModel):
     # Body bytes of `POST /maps` (its own limit: a 1000 x 1000 map in base64 is 1.3 MB, past the
     # missions' `max_body`); larger is 413 before the body is read.
     max_map_body: int = Field(20_000_000, ge=1024, le=1_000_000_000)
+    # PDDL text bytes one answer may hold: a plan version's problem (GET /missions/{id}/pddl/
+    # {version}) larger than this is 413; GET /missions/{id}/pddl holds problems inline up to
+    # `pddl_inline` bytes in all, and names where the others are.
+    max_pddl_answer: int = Field(64_000_000, ge=1024, le=4_000_000_000)
+    pddl_inline: int = Field(4_000_000, ge=0, le=4_000_000_000)
     wall_limit: float = Field(3600.0, gt=0, le=7 * 86400)  # wall-clock seconds per mission
     # Wall seconds a mission may spend learning the lattice set of a shape the library lacks
     # (past it: failed, "learning: ..."; about 0.3 s on one core, bench/learning.py shapes).
@@ -130,6 +135,10 @@ class Settings(BaseModel):
     # Seconds the service's shutdown may take: running missions are asked to stop, then their
     # workers are killed, stuck or not.
     shutdown_seconds: float = Field(10.0, gt=0, le=3600)
+    # Seconds a thread of the server may hold the GIL while another waits for it
+    # (`sys.setswitchinterval`): short, so the event loop waits little behind the threads
+    # writing the store and building large answers.
+    switch_interval: float = Field(0.0005, ge=0.0001, le=0.1)
     # Processes validating request bodies and live updates (and running POST /simulate) off
     # the event loop.
     validation_workers: int = Field(default_factory=lambda: min(cores(), 2), ge=1, le=64)

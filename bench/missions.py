@@ -3,26 +3,38 @@ periodic gait's), as fast as possible, checked against what it expects (bench/RE
 targets: accuracy, contacts, model time / wall time).
 
     python -m bench.missions [--only PATTERN] [--set DIR] [--noise SIGMA] [--repeat N] [--workers 2]
-        [--cap 120]
+        [--cap 120] [--server] [--load]
 
 A mission is ``ok`` when it ends as its ``expect`` says (``examples/`` without one: succeeded)
 and, for a success, every goal is within its tolerance and nothing known was touched (known
 obstacles and the arena walls; hidden obstacles may be found by touch). Missions run in a pool
 of processes, each under a wall-clock cap; a crash or a timeout is a row, never the bench's end.
+
+``--server`` runs the same missions through a real server instead (uvicorn, one mission worker,
+posted one after another): a row's wall time is the service's own, from the ``planning``
+transition to the end (what a user of the API waits), its replans' latencies the service's
+records; what is checked is the status and the goals (contacts by kind are simulator truth the
+API does not show). ``--load`` keeps another core busy meanwhile (a spinning process): the
+figures a loaded machine gives.
 """
 
 from __future__ import annotations
 
 import argparse
 import fnmatch
+import json
+import multiprocessing
+import os
 import statistics
 import sys
+import tempfile
 import time
 import traceback
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from datetime import datetime
 from pathlib import Path
 from typing import Any, TypeVar
 
@@ -75,6 +87,7 @@ class Row:
         "nan"
     )  # this process's CPU seconds (what a loaded machine disturbs less)
     reason: str = ""
+    latencies: list[float] = field(default_factory=list)  # each replan's planning, wall ms
 
     @property
     def ratio(self) -> float:
@@ -177,6 +190,7 @@ def run_spec(set_name: str, spec: MissionSpec, repeat: int, cap: float) -> Run:
     row.max_error_cm = max(errors) * 100 if errors else float("nan")
     row.contacts = result.collisions
     row.replans = len(result.replans)
+    row.latencies = [r.latency_ms for r in result.replans]
     # Simulator truth (the executor never sees it): what each contact touched.
     touched = [i for _, i in getattr(runner.robot, "truth_contacts", [])]
     known = {i for i, o in enumerate(spec.obstacles) if o.known} | {-1}  # -1: the arena wall
@@ -332,11 +346,132 @@ def summary(rows: list[Row]) -> list[str]:
                 f"model/CPU ratio (the worker's own CPU time): median "
                 f"{statistics.median(cpu):.0f}x, minimum {min(cpu):.0f}x"
             )
+    latencies = sorted(v for r in rows for v in r.latencies)
+    if latencies:
+        p95 = latencies[min(len(latencies) - 1, round(0.95 * (len(latencies) - 1)))]
+        out.append(
+            f"replan latency over {len(latencies)} replans: median "
+            f"{statistics.median(latencies):.1f} ms, p95 {p95:.1f} ms"
+        )
     for r in rows:
         if not r.ok:
             why = r.status if r.status.startswith("error") else f"{r.status}: {r.reason}"
             out.append(f"  not ok: {r.set}/{r.name}: {why[:200]}")
     return out
+
+
+def spin() -> None:
+    """Keep a core busy (``--load``) until terminated."""
+    while True:
+        pass
+
+
+def worker_pid(mission: dict[str, Any]) -> int | None:
+    """The worker process running a mission (its ``planning`` transition names it)."""
+    for t in mission["transitions"]:
+        words = t["reason"].split()
+        if t["status"] == "planning" and words[:2] == ["worker", "pid"]:
+            return int(words[2])
+    return None
+
+
+def cpu_seconds(pid: int | None) -> float:
+    """A local process's CPU seconds so far (user + system; NaN if unknown)."""
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+        return (int(fields[11]) + int(fields[12])) / CLOCK_TICKS
+    except (OSError, ValueError, IndexError, TypeError):
+        return float("nan")
+
+
+POLL_SECONDS = 0.25  # between looks at a served mission (its times are the service's own)
+CLOCK_TICKS = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
+
+
+def served_row(client: Any, job: Job, cap: float) -> Row:
+    """Post one mission file to the server, wait for its end, read its row from the API."""
+    path = Path(job.path)
+    spec = load_mission(path)
+    status, reason = expected_of(spec)
+    row = Row(job.set, spec.name, status + (f":{reason}" if reason else ""), "error")
+    body = json.loads(path.read_text())
+    created = client.post("/missions", json=body)
+    if created.status_code != 201:
+        row.status = f"error: POST {created.status_code}"
+        row.reason = created.text[:200]
+        return row
+    mission_id = created.json()["id"]
+    deadline = time.monotonic() + cap + GRACE
+    pid, cpu = None, 0.0
+    while True:
+        mission = client.get(f"/missions/{mission_id}").json()
+        if pid is None:
+            pid = worker_pid(mission)
+            cpu = cpu_seconds(pid)
+        if mission["status"] in ("succeeded", "failed", "cancelled"):
+            row.cpu_time = cpu_seconds(pid) - cpu
+            break
+        if time.monotonic() > deadline:
+            client.post(f"/missions/{mission_id}/cancel")
+            row.status, row.reason, row.wall_time = "timeout", f"over {cap:g} s", cap
+            return row
+        time.sleep(POLL_SECONDS)
+    at = {t["status"]: datetime.fromisoformat(t["at"]) for t in mission["transitions"]}
+    row.wall_time = (at[mission["status"]] - at["planning"]).total_seconds()
+    row.status, row.reason = mission["status"], mission["reason"]
+    row.model_time = mission["model_time"]
+    row.goals = len(mission["goals"])
+    row.reached = sum(g["reached"] for g in mission["goals"])
+    errors = [g["error"] for g in mission["goals"] if g["error"] is not None]
+    row.max_error_cm = max(errors) * 100 if errors else float("nan")
+    row.contacts = mission["collisions"]
+    replans = client.get(f"/missions/{mission_id}/plan").json().get("replans", [])
+    row.latencies = [r["latency_ms"] for r in replans]
+    row.replans = len(row.latencies)
+    met = row.status == status and (reason is None or reason in row.reason)
+    if status == "succeeded":
+        met = met and all(
+            g["reached"] and g["error"] is not None and g["error"] <= g["tolerance"]
+            for g in mission["goals"]
+        )
+    row.ok = met
+    return row
+
+
+def run_served(jobs: list[Job], cap: float) -> list[Row]:
+    """The mission files through a real server (``--server``), one at a time, printing each
+    row as it ends."""
+    import httpx
+
+    from tests.service.test_readiness import wait_ready
+    from tests.service.test_server import start_server
+
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        env = {"SCREWSNAKE_MAX_RUNNING": "1", "SCREWSNAKE_WALL_LIMIT": f"{cap:g}"}
+        proc, base = start_server(Path(tmp) / "bench.db", **env)
+        try:
+            with httpx.Client(base_url=base, timeout=60) as client:
+                wait_ready(client.get)
+                server_cpu = cpu_seconds(proc.pid)
+                for job in jobs:
+                    try:
+                        row = served_row(client, job, cap)
+                    except Exception as exc:  # a row, never the bench's end
+                        row = Row(job.set, Path(job.path).stem, "?", f"error: {exc}"[:200])
+                    rows.append(row)
+                    print(line(row), flush=True)
+                server_cpu = cpu_seconds(proc.pid) - server_cpu
+                workers_cpu = sum(r.cpu_time for r in rows if r.cpu_time == r.cpu_time)
+                print(
+                    f"CPU seconds: the mission worker {workers_cpu:.2f}, the server process (API, "
+                    f"supervisor, store, frames, the bench's polls) {server_cpu:.2f}",
+                    flush=True,
+                )
+        finally:
+            proc.terminate()
+            proc.wait(timeout=30)
+    return rows
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -346,6 +481,10 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--repeat", type=int, default=1, help="runs per mission, best wall time")
     parser.add_argument("--workers", type=int, default=2, help="processes in the pool")
     parser.add_argument("--cap", type=float, default=120.0, help="wall seconds per mission run")
+    parser.add_argument(
+        "--server", action="store_true", help="through a real server (one mission worker)"
+    )
+    parser.add_argument("--load", action="store_true", help="keep another core busy meanwhile")
     parser.add_argument(
         "--set",
         action="append",
@@ -368,8 +507,16 @@ def main(argv: list[str] | None = None) -> int:
     if not jobs:
         print(f"no mission matches {args.only!r}", file=sys.stderr)
         return 1
-    print(HEADER, flush=True)
-    rows = run_all(jobs, args.workers, args.cap)
+    load = multiprocessing.get_context("spawn").Process(target=spin, daemon=True)
+    if args.load:
+        load.start()
+    try:
+        print(HEADER, flush=True)
+        rows = run_served(jobs, args.cap) if args.server else run_all(jobs, args.workers, args.cap)
+    finally:
+        if args.load:
+            load.terminate()  # the process this bench started
+            load.join()
     print("\n".join(summary(rows)))
     return 0
 

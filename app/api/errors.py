@@ -151,7 +151,8 @@ DESCRIPTIONS = {
     404: "No such resource (the detail names it)",
     409: "The request conflicts with the resource's state (the detail says how)",
     413: "The request body is larger than `SCREWSNAKE_MAX_BODY` (`SCREWSNAKE_MAX_MAP_BODY` for "
-    "`POST /maps`; refused before it is read)",
+    "`POST /maps`; refused before it is read), or the answer would be larger than its limit "
+    "(`SCREWSNAKE_MAX_PDDL_ANSWER` for a plan version's PDDL)",
     422: "Invalid request: `field` names the first field at fault, `errors` all of them",
     503: "Busy or unavailable: the queue is full or the database failed (see `Retry-After`)",
 }

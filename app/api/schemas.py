@@ -176,8 +176,21 @@ class PddlOut(BaseModel):
 
     version: int = Field(description="plan version (1, 2, ...)")
     domain: str = Field(description="the PDDL domain text")
-    problem: str = Field(description="the PDDL problem text")
+    problem: str = Field(
+        description="the PDDL problem text; empty when it is not inline (`problem_inline`)"
+    )
     plan: list[str] = Field(description="the plan found, one PDDL action per item")
+    problem_inline: bool = Field(
+        default=True,
+        description="whether `problem` holds the text: problems past `SCREWSNAKE_PDDL_INLINE` "
+        "bytes in all are not inline, only at `problem_url`",
+    )
+    problem_url: str = Field(
+        default="", description="where the problem alone is (text/plain, gzip when accepted)"
+    )
+    problem_bytes: int | None = Field(
+        default=None, description="the problem text's size in bytes (null: not rendered yet)"
+    )
 
 
 class TrajectoryOut(BaseModel):

@@ -209,7 +209,7 @@ class Plan(MissionBehaviour):
         out = ctx.strategy.replan(ctx.situation(), trigger, ctx.cancel)
         ctx.replans.append(out.record)
         ctx.plan_version += 1
-        ctx.pddl.append(PlanVersion(ctx.plan_version, out))
+        ctx.pddl.append(PlanVersion(ctx.plan_version, out, ctx.strategy))
         settle(ctx.pddl, ctx.searches_kept)
         ctx.trigger = None
         if out.record.trigger != "initial":

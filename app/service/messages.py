@@ -50,12 +50,13 @@ class Replanned:
 
 @dataclass(frozen=True)
 class PlanMade:
-    """A plan version with its PDDL and grounded actions."""
+    """A plan version with its PDDL domain, what regenerates its problem (never the text:
+    ``app.executor.plan_versions.render`` writes it when someone asks) and grounded actions."""
 
     version: int
     domain: str
     domain_pddl: str
-    problem_pddl: str
+    problem_source: bytes
     plan: list[str]
     actions: list[dict[str, Any]]
 

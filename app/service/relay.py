@@ -155,9 +155,10 @@ class Relay:
                 message.version,
                 message.domain,
                 message.domain_pddl,
-                message.problem_pddl,
+                "",
                 message.plan,
                 message.actions,
+                source=message.problem_source,
             )
             self.publish(
                 mission_id,

@@ -29,6 +29,7 @@ from app.executor.runner import MissionError, MissionRunner, UpdateRefused
 from app.executor.warm import unfreeze_mission
 from app.missions.spec import MissionSpec, body_overlap
 from app.missions.status import MissionStatus
+from app.service import world_map
 from app.service.messages import (
     AddGoal,
     AddObstacle,
@@ -124,6 +125,9 @@ STATE_SAVE_SECONDS = 1.0  # wall seconds between state writes of a running missi
 PAUSED_POLL_SECONDS = 0.05  # how often a paused mission looks for resume or cancel
 EVENTS_KEPT = 1000  # events kept in a mission's stored state (the newest)
 PACE_SLICE = 0.25  # longest wait while pacing: cancels and the wall clock are checked between
+# Wall seconds between looks at the live-update queue: a multiprocessing queue's look takes a
+# lock and a poll (~5% of an unpaced mission's CPU, were it made every control tick).
+UPDATE_POLL_SECONDS = 0.02
 
 
 # The planner's motion caches kept between replans, per process: the share of a worker's memory
@@ -197,6 +201,8 @@ def mission_state(runner: MissionRunner) -> dict[str, Any]:
         "sensed": world.get("sensed", []),
         "contacts": world.get("contact", []),
         "resolution": world.get("resolution"),
+        # the world model as map_saver would write it (GET /missions/{id}/world.yaml, .pgm)
+        "map": world_map.pack(ctx.world, world["origin"], world["resolution"]),
         # For the viewer's replay and the event log (GET /missions/{id}/events): every event
         # (the newest EVENTS_KEPT), and the model time at which each plan version was made
         # (index = version - 1).
@@ -209,13 +215,13 @@ def plan_message(runner: MissionRunner, index: int) -> PlanMade:
     """The plan message of plan version ``index + 1``."""
     ctx = runner.ctx
     entry = ctx.pddl[index]
-    actions = runner.plan_actions() if entry["version"] == ctx.plan_version else []
+    actions = runner.plan_actions() if entry.version == ctx.plan_version else []
     return PlanMade(
-        entry["version"],
+        entry.version,
         ctx.spec.planner.domain,
-        entry["domain"],
-        entry["problem"],
-        entry["plan"],
+        entry.domain,
+        entry.source(),
+        entry.plan,
         actions,
     )
 
@@ -426,13 +432,15 @@ def _run(
         return
     known = tuple(shape for shape, _ in job.learned)
     started = time.perf_counter()
-    executing, learned_sent = False, 0
+    executing, learned_sent, last_poll = False, 0, 0.0
     history = WorldHistory()  # what the replay shows of the world model at each model time
     paused_since: float | None = None
     while True:
-        for update in pending(updates, mission_id):
-            for message in apply_update(runner, update):
-                queue.put(message)
+        if (now := time.perf_counter()) - last_poll >= UPDATE_POLL_SECONDS:
+            last_poll = now
+            for update in pending(updates, mission_id):
+                for message in apply_update(runner, update):
+                    queue.put(message)
         if runner.paused and paused_since is None:
             paused_since = time.perf_counter()
         elif not runner.paused and paused_since is not None:

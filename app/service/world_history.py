@@ -38,8 +38,10 @@ class WorldHistory:
 
     def observe(self, t: float, world: WorldView) -> None:
         """Record the model at model time ``t`` if it changed and ``every`` has passed."""
+        if t - self._t < self.every:  # (first: this runs at every control tick)
+            return
         version = versions(world)
-        if t - self._t < self.every or (version is not None and version == self._version):
+        if version is not None and version == self._version:
             return
         self.record(t, world)
 

@@ -79,6 +79,9 @@ class PlanRow(Base):
     domain_ref: Mapped[str | None] = mapped_column(String(64), nullable=True)
     problem_ref: Mapped[str | None] = mapped_column(String(64), nullable=True)
     steps_ref: Mapped[str | None] = mapped_column(String(64), nullable=True)  # plan, actions
+    # What regenerates the problem (``app.executor.plan_versions.render``; its text is then
+    # empty): written by the worker instead of the text, which is rendered when asked.
+    source_ref: Mapped[str | None] = mapped_column(String(64), nullable=True)
 
 
 class ReplanRow(Base):

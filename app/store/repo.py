@@ -39,7 +39,9 @@ from app.store.models import (
 
 @dataclass(frozen=True)
 class StoredPlan:
-    """A plan version as stored: its PDDL (empty when not asked for), steps and actions."""
+    """A plan version as stored: its PDDL (empty when not asked for), steps and actions. A
+    version stored by a worker has no problem text but what regenerates it (``source``,
+    ``app.executor.plan_versions.render``; None when not asked for)."""
 
     version: int
     domain: str
@@ -47,6 +49,7 @@ class StoredPlan:
     problem_pddl: str
     plan: list[str]
     actions: list[dict[str, Any]]
+    source: bytes | None = None
 
 
 NewMission = tuple[str, dict[str, Any], str | None]  # name, request, idempotency key
@@ -239,16 +242,21 @@ class Store:
         problem_pddl: str,
         plan: Sequence[str],
         actions: Sequence[dict[str, Any]],
+        source: bytes | None = None,
     ) -> None:
-        """A plan version; its PDDL and actions go to blobs (the domain text is stored once)."""
+        """A plan version; its PDDL and actions go to blobs (the domain text is stored once);
+        ``source``: what regenerates its problem (stored as it is), instead of the text."""
         with self.sessions() as s:  # compressed before the write lock, not under it
             texts = (
                 blobs.prepare(s, domain_pddl),
-                blobs.prepare(s, problem_pddl),
+                blobs.prepare(s, problem_pddl) if source is None else None,
                 blobs.prepare_json(s, {"plan": list(plan), "actions": list(actions)}),
+                blobs.prepare_bytes(s, source) if source is not None else None,
             )
         with self._writing(), self.sessions() as s:
-            domain_ref, problem_ref, steps_ref = (blobs.put(s, b) for b in texts)
+            domain_ref, problem_ref, steps_ref, source_ref = (
+                blobs.put(s, b) if b is not None else None for b in texts
+            )
             s.add(
                 PlanRow(
                     mission_id=mission_id,
@@ -261,15 +269,21 @@ class Store:
                     domain_ref=domain_ref,
                     problem_ref=problem_ref,
                     steps_ref=steps_ref,
+                    source_ref=source_ref,
                 )
             )
             s.commit()
 
-    def plans(self, mission_id: str, texts: bool = True, last: bool = False) -> list[StoredPlan]:
-        """The mission's plan versions, oldest first (only the newest with ``last``); the PDDL
-        texts are read only with ``texts`` (they are the bulk)."""
+    def plans(
+        self, mission_id: str, texts: bool = True, last: bool = False, version: int | None = None
+    ) -> list[StoredPlan]:
+        """The mission's plan versions, oldest first (only the newest with ``last``, only
+        ``version`` given one); the PDDL texts and sources are read only with ``texts`` (they
+        are the bulk)."""
         with self.sessions() as s:
             q = select(PlanRow).where(PlanRow.mission_id == mission_id)
+            if version is not None:
+                q = q.where(PlanRow.version == version)
             if last:
                 q = q.order_by(PlanRow.version.desc()).limit(1)
             rows = sorted(s.scalars(q), key=lambda r: r.version)
@@ -288,6 +302,7 @@ class Store:
                         problem_pddl=text(r.problem_ref, r.problem_pddl),
                         plan=steps.get("plan", r.plan),
                         actions=steps.get("actions", r.actions),
+                        source=blobs.get_bytes(s, r.source_ref) if r.source_ref and texts else None,
                     )
                 )
             return out
@@ -381,6 +396,7 @@ class Store:
                 PlanRow.domain_ref,
                 PlanRow.problem_ref,
                 PlanRow.steps_ref,
+                PlanRow.source_ref,
                 ReplanRow.plans_ref,
                 TrajectoryRow.points_ref,
                 TrajectoryRow.world_ref,
