@@ -5,6 +5,9 @@ PYTHON ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
 PACKAGES := app domain primitives sim
+# pytest's worker processes (pytest-xdist): one per core; tests that share a module's server or a
+# Ray instance run on one worker (their xdist_group).
+PYTEST_WORKERS ?= auto
 
 .PHONY: run test lint typecheck pytest bench clean
 
@@ -31,7 +34,7 @@ typecheck: $(VENV)/.installed-test
 	$(BIN)/mypy $(PACKAGES)
 
 pytest: $(VENV)/.installed-test
-	$(BIN)/pytest
+	$(BIN)/pytest -n $(PYTEST_WORKERS) --dist loadgroup
 
 test: lint typecheck pytest
 

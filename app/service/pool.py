@@ -154,7 +154,9 @@ class ProcessWorker:
 
     def stop(self, timeout: float = STOP_SECONDS) -> None:
         self.cancel_flag.set()
-        if self.process.is_alive():
+        # Still warming up, it runs no mission and reads no job until the warm-up ends (seconds
+        # of CPU that nobody will use): killed at once.
+        if self.process.is_alive() and self.warm_flag.is_set():
             self.jobs.put(None)
             self.process.join(timeout=timeout)
         self._kill()

@@ -40,6 +40,14 @@ get_environment().credits_stream = None  # no engine banners in the test output
 # unified-planning cannot tell whether Fast Downward takes a problem with action costs; it does.
 pytestmark = pytest.mark.filterwarnings("ignore:We cannot establish whether Fast Downward")
 
+
+@pytest.fixture(autouse=True)
+def own_directory(tmp_path: Any, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Fast Downward writes its translation (output.sas) to the working directory: each test
+    its own, so tests on parallel workers never read each other's."""
+    monkeypatch.chdir(tmp_path)
+
+
 COARSE = NavigationSettings(
     resolution=0.1, orientations=32, costmap=CostmapSettings(resolution=0.1)
 )

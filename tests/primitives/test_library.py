@@ -92,6 +92,7 @@ def test_process_pool_gives_the_same_library_as_serial() -> None:
     assert a.to_json() == b.to_json()
 
 
+@pytest.mark.xdist_group("ray")  # one local Ray instance at a time (tests/service/test_ray.py)
 def test_ray_builds_a_large_library_identical_to_the_local_pool() -> None:
     ray = pytest.importorskip("ray")
     from primitives.catalogue import grid_specs

@@ -32,8 +32,12 @@ PROBLEM = "application/problem+json"
 
 
 def app_client(tmp_path: Path, **settings: object) -> TestClient:
+    """An app on a SQLite file in ``tmp_path``; its workers skip the warm-up unless asked
+    (``warm_up=True``): what these tests check does not depend on it, and each warm-up costs a
+    worker seconds of CPU (test_readiness.py checks the warm-up)."""
     url = settings.pop("database_url", f"sqlite:///{tmp_path / 'limits.db'}")
-    return TestClient(create_app(Settings.model_validate({"database_url": url, **settings})))
+    config = {"database_url": url, "warm_up": False, **settings}
+    return TestClient(create_app(Settings.model_validate(config)))
 
 
 def wait_status(

@@ -17,6 +17,7 @@ from tests.service.test_pool import TERMINAL, seconds_between, worker_pid
 from tests.service.test_readiness import wait_ready
 
 ray = pytest.importorskip("ray")
+pytestmark = pytest.mark.xdist_group("ray")  # one local Ray instance at a time
 EXAMPLE = json.loads(
     (Path(__file__).parents[2] / "examples" / "fig9a-single-goal.json").read_text()
 )
@@ -88,7 +89,7 @@ def test_a_lost_ray_actor_is_replaced_and_its_mission_fails_with_the_reason(
 
 
 def test_a_ray_actor_is_warm_when_ready_and_its_replacement_starts_cold(tmp_path: Path) -> None:
-    with app_client(tmp_path, max_running=1, executor="ray") as c:
+    with app_client(tmp_path, max_running=1, executor="ray", warm_up=True) as c:
         ready = wait_ready(c.get)  # the pool starts once its actors have warmed up
         assert ready.json()["workers"] == {"warm": 1, "size": 1, "needed": 1}
         (worker,) = c.app.state.services.supervisor.workers  # type: ignore[attr-defined]

@@ -209,3 +209,18 @@ def poll_until(check: Callable[[], bool]) -> bool:
             return False
         time.sleep(0.05)
     return True
+
+
+def test_a_worker_still_warming_up_is_stopped_at_once(tmp_path: Path) -> None:
+    """Stopping the service while a worker warms up (its gate never opens) does not wait for
+    the warm-up: the worker runs no mission yet, so it is killed without the stop's grace."""
+    gates = tmp_path / "gates"
+    gates.mkdir()
+    settings = Settings(database_url="sqlite://", max_running=1)
+    worker = pool.ProcessWorker(
+        0, Library.load(bundled_library_path()), settings, GatedWarmUp(gates)
+    )
+    started = time.monotonic()
+    worker.stop()
+    assert time.monotonic() - started < pool.STOP_SECONDS / 2
+    assert not worker.alive()

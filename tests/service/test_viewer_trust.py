@@ -24,9 +24,12 @@ from tests.service.test_browser import (  # noqa: F401  (browser: a fixture)
 )
 from tests.service.test_server import start_server
 
-pytestmark = pytest.mark.skipif(
-    not CHROMIUM.exists(), reason="Debian chromium is not installed (.ci/run installs it)"
-)
+pytestmark = [
+    pytest.mark.skipif(
+        not CHROMIUM.exists(), reason="Debian chromium is not installed (.ci/run installs it)"
+    ),
+    pytest.mark.xdist_group("viewer-trust"),  # the module's one server and finished mission
+]
 LIVE_SPEED = 3  # cluttered-field lasts about 65 wall seconds: time to look; each test cancels it
 
 
