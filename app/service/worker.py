@@ -466,6 +466,10 @@ def _run(
         if not executing and not runner.paused:  # a pause before the first tick stays paused
             queue.put(Transition(MissionStatus.EXECUTING, "", mission_state(runner)))
             executing = True
+            # Pacing counts from here: the first plan (seconds on a cold worker) is no model
+            # time to catch up on by running the first stretch unpaced.
+            if spec.speed > 0:
+                started = time.perf_counter() - ctx.t / spec.speed
         wall = time.perf_counter()
         if wall - last_state >= period:
             queue.put(Publish({"type": "state", **runner.snapshot()}))
