@@ -431,11 +431,12 @@ def test_goal_walled_in_by_hidden_obstacles_ends_failed_with_the_reason(client: 
     m = wait_end(client, client.post("/missions", json=body).json()["id"], timeout=120)
     # Never into the ring: it looks, clears what it sensed once, looks again, and gives up on
     # what the lethal layer proves (or, where a sensed ring keeps gaps a cell wide, on a
-    # search that finds no way within its budget).
+    # search that finds no way within its budget, or within its wall-clock limit on a busy
+    # machine): never on a claim the facts do not hold.
     assert m["status"] == "failed" and m["collisions"] == 0
-    assert m["reason"].startswith(
-        ("unreachable: goal 0 at (3, 3)", "planning timeout: no plan to goal 0 at (3, 3)")
-    ), m["reason"]
+    assert m["reason"].startswith(("unreachable: goal 0 at (3, 3)", "planning timeout: no plan")), (
+        m["reason"]
+    )
 
 
 def test_what_the_server_holds_is_out_of_the_collectors_full_passes_while_it_runs(
