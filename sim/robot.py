@@ -219,6 +219,28 @@ def head_tip(pose: Array, geometry: RobotGeometry = DEFAULT_GEOMETRY) -> Array:
     )
 
 
+def body_chain(pose: Array, phi: Array, geometry: RobotGeometry) -> Array:
+    """The head tip and the ``joint_positions`` of one pose ``[3]`` and shape ``[3]``, as one
+    array ``[6, 2]``: the same operations as ``head_tip`` and ``joint_positions`` element by
+    element (the five angles' cos and sin in one numpy call, the sums in the cumulative sums'
+    order), on Python floats, far cheaper for one robot."""
+    x, y, psi = pose.tolist()
+    p0, p1, p2 = phi.tolist()
+    h2 = p0 + p1
+    angles = np.array([psi + 0.0, psi + p0, psi + h2, psi + (h2 + p2), psi + math.pi])
+    cos, sin = np.cos(angles).tolist(), np.sin(angles).tolist()
+    seg = [*geometry.segments.tolist(), geometry.unit_length]
+    hl = geometry.head_length
+    points = [x + hl * cos[4], y + hl * sin[4], x, y]
+    ox = oy = 0.0
+    for i in range(4):
+        # cumsum adds from the first term: 0 + a == a, so start from the first step itself
+        sx, sy = seg[i] * cos[i], seg[i] * sin[i]
+        ox, oy = (sx, sy) if i == 0 else (ox + sx, oy + sy)
+        points += (x + ox, y + oy)
+    return np.array(points).reshape(6, 2)
+
+
 def unit_centres(pose: Array, phi: Array, geometry: RobotGeometry = DEFAULT_GEOMETRY) -> Array:
     """Screw centres p_1..p_4 (docs/robot-model.md), ``[..., 4, 2]``, for poses ``[..., 3]``."""
     th = pose[..., 2:3] + unit_headings(phi)  # [..., 4]

@@ -19,6 +19,7 @@ from sim.robot import (
     DEFAULT_GEOMETRY,
     Array,
     RobotGeometry,
+    body_chain,
     body_twist,
 )
 from sim.rollout import JOINT_MODES, JointMode
@@ -235,25 +236,3 @@ class Simulator:
                 return contact
             self.pose, self.joints = pose, phi
         return None
-
-
-def body_chain(pose: Array, phi: Array, geometry: RobotGeometry) -> Array:
-    """The head tip and the ``joint_positions`` of one pose ``[3]`` and shape ``[3]``, as one
-    array ``[6, 2]``: the same operations as ``head_tip`` and ``joint_positions`` element by
-    element (the five angles' cos and sin in one numpy call, the sums in the cumulative sums'
-    order), on Python floats, far cheaper for one robot."""
-    x, y, psi = pose.tolist()
-    p0, p1, p2 = phi.tolist()
-    h2 = p0 + p1
-    angles = np.array([psi + 0.0, psi + p0, psi + h2, psi + (h2 + p2), psi + math.pi])
-    cos, sin = np.cos(angles).tolist(), np.sin(angles).tolist()
-    seg = [*geometry.segments.tolist(), geometry.unit_length]
-    hl = geometry.head_length
-    points = [x + hl * cos[4], y + hl * sin[4], x, y]
-    ox = oy = 0.0
-    for i in range(4):
-        # cumsum adds from the first term: 0 + a == a, so start from the first step itself
-        sx, sy = seg[i] * cos[i], seg[i] * sin[i]
-        ox, oy = (sx, sy) if i == 0 else (ox + sx, oy + sy)
-        points += (x + ox, y + oy)
-    return np.array(points).reshape(6, 2)

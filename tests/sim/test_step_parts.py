@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from sim.controls import FixedShape, as_batch, clamp_joints
-from sim.robot import DEFAULT_GEOMETRY, body_twist, head_tip, joint_positions
-from sim.simulator import Simulator, body_chain
+from sim.robot import DEFAULT_GEOMETRY, body_chain, body_twist, head_tip, joint_positions
+from sim.simulator import Simulator
 from sim.world import footprint, footprint_of_chain
 
 
