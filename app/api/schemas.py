@@ -11,14 +11,13 @@ from datetime import datetime
 from typing import Annotated, Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, RootModel, model_validator
+from pydantic import Strict as StrictNumber  # no bool or string coerced into a number
 
 from app.missions.spec import Coord, GoalSpec, Joint, ObstacleSpec, Pose
 from app.missions.status import MissionStatus
 from app.service.frames import PoseOut
 from primitives.shapes import SHAPES, is_shape
 from sim.robot import DEFAULT_GEOMETRY
-
-Finite = Annotated[float, Field(allow_inf_nan=False)]
 
 
 class TransitionOut(BaseModel):
@@ -212,7 +211,7 @@ class SimulateIn(BaseModel):
         },
     )
     theta: Annotated[
-        list[Annotated[float, Field(allow_inf_nan=False, ge=-1, le=1)]],
+        list[Annotated[float, StrictNumber(), Field(allow_inf_nan=False, ge=-1, le=1)]],
         Field(
             min_length=4,
             max_length=4,
@@ -224,16 +223,19 @@ class SimulateIn(BaseModel):
     )
     phases: (
         Annotated[
-            list[Annotated[float, Field(allow_inf_nan=False, ge=-100, le=100)]],
+            list[Annotated[float, StrictNumber(), Field(allow_inf_nan=False, ge=-100, le=100)]],
             Field(min_length=3, max_length=3),
         ]
         | None
     ) = Field(default=None, description="gait phases ϕ1..ϕ3, radians: φi = 0.2 sin(0.6 t + ϕi)")
     duration: Annotated[
-        float, Field(allow_inf_nan=False, gt=0, le=3600, description="model seconds")
+        float,
+        StrictNumber(),
+        Field(allow_inf_nan=False, gt=0, le=3600, description="model seconds"),
     ] = 100.0
     dt: Annotated[
         float,
+        StrictNumber(),
         Field(allow_inf_nan=False, ge=0.01, le=10, description="Euler step, model seconds"),
     ] = 1.0
     start: Pose = Field(default=Pose(), description="start pose (metres, radians)")
@@ -243,6 +245,7 @@ class SimulateIn(BaseModel):
     )
     max_points: Annotated[
         int,
+        StrictNumber(),
         Field(
             ge=2,
             le=100_000,
@@ -287,8 +290,8 @@ class LearnIn(BaseModel):
     )
     goal: (
         tuple[
-            Annotated[float, Field(allow_inf_nan=False, ge=-7, le=7)],
-            Annotated[float, Field(allow_inf_nan=False, ge=-7, le=7)],
+            Annotated[float, StrictNumber(), Field(allow_inf_nan=False, ge=-7, le=7)],
+            Annotated[float, StrictNumber(), Field(allow_inf_nan=False, ge=-7, le=7)],
         ]
         | None
     ) = Field(
@@ -311,12 +314,17 @@ class LearnIn(BaseModel):
     learner: Literal["pi2", "pi2-cma", "cmaes"] = Field(
         default="pi2", description="pi2 (the paper's), pi2-cma or cmaes"
     )
-    seed: Annotated[int, Field(ge=0, le=2**31, description="random seed (deterministic)")] = 0
+    seed: Annotated[
+        int, StrictNumber(), Field(ge=0, le=2**31, description="random seed (deterministic)")
+    ] = 0
     threshold: Annotated[
         float,
+        StrictNumber(),
         Field(allow_inf_nan=False, ge=0.005, le=1, description="stop under this end error, m"),
     ] = 0.05
-    max_updates: Annotated[int, Field(ge=1, le=500, description="learner updates at most")] = 100
+    max_updates: Annotated[
+        int, StrictNumber(), Field(ge=1, le=500, description="learner updates at most")
+    ] = 100
 
     @model_validator(mode="after")
     def _shape(self) -> LearnIn:
@@ -374,7 +382,9 @@ class GoalAdd(BaseModel):
     x: Coord = Field(description="goal x, metres (world frame)")
     y: Coord = Field(description="goal y, metres (world frame)")
     tolerance: Annotated[
-        float, Field(allow_inf_nan=False, gt=0, le=5.0, description="radius that counts, m")
+        float,
+        StrictNumber(),
+        Field(allow_inf_nan=False, gt=0, le=5.0, description="radius that counts, m"),
     ] = 0.1
 
     def spec(self) -> GoalSpec:

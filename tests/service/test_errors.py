@@ -111,6 +111,24 @@ def test_validation_errors_list_every_field(client: TestClient) -> None:
     assert body["field"] == "limit"
 
 
+@pytest.mark.parametrize(
+    ("path", "body", "field"),
+    [
+        ("/simulate", {"theta": [True, 0, 0, 0]}, "theta.0"),
+        ("/simulate", {"theta": [0.5, 0, 0, 0], "duration": "10"}, "duration"),
+        ("/simulate", {"theta": [0.5, 0, 0, 0], "max_points": False}, "max_points"),
+        ("/jobs/learn", {"goal": [True, -2]}, "goal.0"),
+        ("/jobs/learn", {"goal": [-2, -2], "seed": True}, "seed"),
+    ],
+)
+def test_a_boolean_or_a_string_is_not_a_number(
+    client: TestClient, path: str, body: dict, field: str
+) -> None:
+    # as in a mission: JSON true is not 1, "10" is not 10
+    answer = problem(client.post(path, json=body), 422, "Unprocessable Entity")
+    assert answer["field"] == field
+
+
 def test_a_missing_api_key_is_a_401_problem(tmp_path: Path) -> None:
     app = create_app(Settings(database_url=f"sqlite:///{tmp_path / 'k.db'}", api_key="s3cret"))
     with TestClient(app) as c:
