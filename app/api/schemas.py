@@ -13,6 +13,7 @@ from typing import Annotated, Any, Literal
 from pydantic import BaseModel, ConfigDict, Field, RootModel, model_validator
 from pydantic import Strict as StrictNumber  # no bool or string coerced into a number
 
+from app.missions.parts import Angle
 from app.missions.spec import Coord, GoalSpec, Joint, ObstacleSpec, Pose
 from app.missions.status import MissionStatus
 from app.service.frames import PoseOut
@@ -223,7 +224,7 @@ class SimulateIn(BaseModel):
     )
     phases: (
         Annotated[
-            list[Annotated[float, StrictNumber(), Field(allow_inf_nan=False, ge=-100, le=100)]],
+            list[Angle],
             Field(min_length=3, max_length=3),
         ]
         | None
