@@ -22,7 +22,8 @@ def test_goals_and_obstacles_added_live_are_listed_with_when_and_how(
     client: TestClient,
 ) -> None:
     hidden = {"type": "circle", "x": 2.0, "y": -3.0, "radius": 0.2, "known": False}
-    body = {**SLOW, "obstacles": [hidden, POST]}
+    # a far goal: the mission must still run after three updates on a slow, busy machine
+    body = {**SLOW, "goals": [{"x": -4, "y": -4}], "obstacles": [hidden, POST]}
     mission = client.post("/missions", json=body).json()
     # before it runs: the posted goal and the posted known obstacle (the hidden one is not known)
     assert [o["id"] for o in mission["obstacles"]] == ["request-1"]
@@ -38,7 +39,8 @@ def test_goals_and_obstacles_added_live_are_listed_with_when_and_how(
     wall = {"type": "circle", "x": -3.0, "y": 2.5, "radius": 0.3}  # flat, as in a mission
     added = client.post(f"/missions/{mission_id}/obstacles", json=wall)
     assert added.status_code == 202, added.text
-    assert client.post(f"/missions/{mission_id}/goals", json={"x": -1, "y": 1.5}).status_code == 202
+    goal_added = client.post(f"/missions/{mission_id}/goals", json={"x": -1, "y": 1.5})
+    assert goal_added.status_code == 202, goal_added.text
     old_form = {"obstacle": {"type": "circle", "x": 3.5, "y": -3.5, "radius": 0.2}}
     assert client.post(f"/missions/{mission_id}/obstacles", json=old_form).status_code == 202
 

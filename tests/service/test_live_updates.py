@@ -99,7 +99,7 @@ def test_goals_are_named_by_their_posted_index_and_a_reached_one_stays(
 
 
 def test_a_known_obstacle_added_mid_mission_is_planned_around(client: TestClient) -> None:
-    mission = client.post("/missions", json={**GOAL, "speed": 2.0}).json()
+    mission = client.post("/missions", json={**GOAL, "speed": 6.0}).json()
     wait_for(client, mission["id"], executing)
     # beyond the goal, seen from the start: never where the robot is by the time it arrives
     wall = {"type": "rectangle", "x": -2.8, "y": -1.4, "width": 0.2, "height": 1.0, "angle": 0.5}
