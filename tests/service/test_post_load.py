@@ -57,7 +57,7 @@ def test_server_timing_can_be_turned_off(tmp_path: Path) -> None:
 def test_a_burst_of_posts_stores_and_queues_every_mission_once(tmp_path: Path) -> None:
     """20 posts at once against a real server, two with one Idempotency-Key: every post is
     answered from the store (201, or 200 for the retry), and every new mission is stored once."""
-    proc, base = start_server(tmp_path / "burst.db", SCREWSNAKE_WARM_UP="0")
+    proc, base = start_server(tmp_path / "burst.db")
 
     async def burst() -> list[httpx.Response]:
         async with httpx.AsyncClient(base_url=base, timeout=60) as http:

@@ -23,9 +23,16 @@ def free_port() -> int:
 
 
 def start_server(db: Path, **env_extra: str) -> tuple[subprocess.Popen[bytes], str]:
-    """uvicorn serving app.main:app on a free loopback port, once it answers /livez."""
+    """uvicorn serving app.main:app on a free loopback port, once it answers /livez. Its
+    workers skip the warm-up unless asked (``SCREWSNAKE_WARM_UP="1"``), as ``app_client``'s do:
+    each warm-up costs seconds of CPU that the other tests running beside it would wait for."""
     port = free_port()
-    env = {**os.environ, "SCREWSNAKE_DATABASE_URL": f"sqlite:///{db}", **env_extra}
+    env = {
+        **os.environ,
+        "SCREWSNAKE_DATABASE_URL": f"sqlite:///{db}",
+        "SCREWSNAKE_WARM_UP": "0",
+        **env_extra,
+    }
     command = [
         sys.executable,
         "-m",
