@@ -89,6 +89,12 @@ class Planner:
         i, j, k = key
         return table.pose_of_centroid(self.grid.centre(i, j), k)
 
+    def pose_tuple(self, table: MotionTable, key: Key) -> tuple[float, float, float]:
+        """``pose_of`` as three floats."""
+        i, j, k = key
+        b, r = self.grid.bounds, self.settings.resolution
+        return table.pose_tuple(b.xmin + (i + 0.5) * r, b.ymin + (j + 0.5) * r, k)
+
     # -- what one replan reads --------------------------------------------------------------
     def inputs(
         self, world: WorldModel, table: MotionTable, near: tuple[float, float] | None = None
@@ -435,7 +441,7 @@ class Planner:
                 source, here = here, self.grid.decode(int(args[1][1:]))
                 m = by_name[args[2]]
                 motion = table.motions[m]
-                target = tuple(float(v) for v in self.pose_of(table, here))
+                target = self.pose_tuple(table, here)
                 out.append(
                     PlanAction(
                         "move",
@@ -450,7 +456,7 @@ class Planner:
                     )
                 )
             else:
-                target = tuple(float(v) for v in self.pose_of(table, here))
+                target = self.pose_tuple(table, here)
                 out.append(
                     PlanAction(
                         "visit", name, None, (target[0], target[1], target[2]), 0.0, task.goal_index

@@ -394,10 +394,21 @@ class MotionTable:
         out: Array = pose[..., :2] + rotate(self.offset, pose[..., 2])
         return out
 
+    @cached_property
+    def _centroid_offsets(self) -> list[tuple[float, float]]:
+        """Per orientation bin, the centroid's offset from the tracked point (a plan's every
+        state reads one: a list lookup, not a rotation)."""
+        psi = np.arange(self.settings.orientations, dtype=np.float64) * self.settings.step
+        return [(float(x), float(y)) for x, y in rotate(self.offset[None, :], psi)]
+
     def pose_of_centroid(self, c: Array, k: int) -> Array:
         """The tracked-point pose whose centroid is ``c`` at orientation bin ``k``."""
-        psi = self.heading(k)
-        return np.array([*(c - rotate(self.offset, np.array(psi))), psi])
+        return np.array(self.pose_tuple(float(c[0]), float(c[1]), k))
+
+    def pose_tuple(self, cx: float, cy: float, k: int) -> tuple[float, float, float]:
+        """``pose_of_centroid`` as three floats."""
+        ox, oy = self._centroid_offsets[k % self.settings.orientations]
+        return (cx - ox, cy - oy, self.heading(k))
 
     def centroid_need(self) -> float:
         """Clearance the centroid itself needs: how deep it lies inside the body's capsules."""
