@@ -16,7 +16,7 @@ MISSION = {
     "name": "paced",
     "goals": [{"x": -3, "y": -1}],
     "bounds": {"xmin": -5, "xmax": 5, "ymin": -5, "ymax": 5},
-    "speed": 75,
+    "speed": 40,
 }
 
 
