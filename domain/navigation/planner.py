@@ -86,14 +86,12 @@ class Planner:
 
     def pose_of(self, table: MotionTable, key: Key) -> Array:
         """The tracked-point pose of ``table``'s body at lattice state ``key``."""
-        i, j, k = key
-        return table.pose_of_centroid(self.grid.centre(i, j), k)
+        return np.array(self.pose_tuple(table, key))
 
     def pose_tuple(self, table: MotionTable, key: Key) -> tuple[float, float, float]:
         """``pose_of`` as three floats."""
         i, j, k = key
-        b, r = self.grid.bounds, self.settings.resolution
-        return table.pose_tuple(b.xmin + (i + 0.5) * r, b.ymin + (j + 0.5) * r, k)
+        return table.pose_tuple(*self.grid.centre_xy(i, j), k)
 
     # -- what one replan reads --------------------------------------------------------------
     def inputs(
@@ -297,13 +295,13 @@ class Planner:
         if state_costs(self.grid.encode(start), inputs, kt_start)[0] == 0:
             return self._blocked(table.shape, 0)
         si, sj, _ = start
-        here = tuple(float(v) for v in self.grid.centre(si, sj))
+        here = self.grid.centre_xy(si, sj)
         maps: dict[int, Array] = {}
         for g in request.goals:
             stop_if_due(request.cancel, deadline)
-            maps[g.index] = self.heuristic_map(table, world, g, (here[0], here[1]))
+            maps[g.index] = self.heuristic_map(table, world, g, here)
             if not math.isfinite(maps[g.index][si, sj]):
-                known = self.heuristic_map(table, world, g, (here[0], here[1]), static=True)
+                known = self.heuristic_map(table, world, g, here, static=True)
                 proof: Proof = "sensed" if math.isfinite(known[si, sj]) else "known"
                 by = "known obstacles" if proof == "known" else "sensed obstacles"
                 return Failure(
@@ -447,7 +445,7 @@ class Planner:
                         "move",
                         name,
                         motion.primitive,
-                        (target[0], target[1], target[2]),
+                        target,
                         motion.duration,
                         None,
                         source,
@@ -457,11 +455,7 @@ class Planner:
                 )
             else:
                 target = self.pose_tuple(table, here)
-                out.append(
-                    PlanAction(
-                        "visit", name, None, (target[0], target[1], target[2]), 0.0, task.goal_index
-                    )
-                )
+                out.append(PlanAction("visit", name, None, target, 0.0, task.goal_index))
         return out, here
 
 

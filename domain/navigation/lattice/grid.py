@@ -62,8 +62,12 @@ class LatticeGrid:
         return out
 
     def centre(self, i: int, j: int) -> Array:
+        return np.array(self.centre_xy(i, j))
+
+    def centre_xy(self, i: int, j: int) -> tuple[float, float]:
+        """Cell (i, j)'s centre as two floats (no array, for per-state loops)."""
         r = self.settings.resolution
-        return np.array([self.bounds.xmin + (i + 0.5) * r, self.bounds.ymin + (j + 0.5) * r])
+        return self.bounds.xmin + (i + 0.5) * r, self.bounds.ymin + (j + 0.5) * r
 
     def cell(self, x: float, y: float) -> tuple[int, int]:
         r = self.settings.resolution

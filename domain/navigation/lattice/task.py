@@ -226,9 +226,8 @@ class LatticeTask(Task):  # type: ignore[misc]
     def is_near(self, key: Key) -> bool:
         i, j, k = key
         dx, dy = self.table.heads[k]
-        r, b = self.grid.settings.resolution, self.grid.bounds
-        x, y = b.xmin + (i + 0.5) * r + dx, b.ymin + (j + 0.5) * r + dy
-        return math.hypot(x - self.goal[0], y - self.goal[1]) <= self.reach
+        cx, cy = self.grid.centre_xy(i, j)
+        return math.hypot(cx + dx - self.goal[0], cy + dy - self.goal[1]) <= self.reach
 
     def near_states(self) -> NDArray[np.int64]:
         """Every state where the head is on the goal (``is_near``), sorted."""
