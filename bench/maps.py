@@ -10,7 +10,8 @@ missions, and a real server's /livez while big maps and obstacle lists are poste
 - the same field's mission headless: posts known, hidden, as a known map and as a hidden map
   (status, model and wall time, model/wall);
 - ``--server``: /livez latency from another process while ``POST /maps`` takes ``--size`` maps
-  and ``POST /missions`` missions of 10,000 obstacles, four at a time (validation in the pool).
+  and ``POST /missions`` missions of 10,000 obstacles, four at a time (validation in the pool),
+  each then read back (``GET /missions/{id}``, its websocket snapshot) and cancelled.
 """
 
 from __future__ import annotations
@@ -158,6 +159,7 @@ def missions(posts: np.ndarray, image: np.ndarray, library: Library) -> None:
 
 def server(size: int, rounds: int) -> None:
     import httpx
+    import websockets
 
     from bench.soak import livez_while, summary
     from tests.service.test_server import start_server
@@ -194,7 +196,11 @@ def server(size: int, rounds: int) -> None:
             print(f"/livez idle: {summary(livez_while(port, 3, lambda: None))}")
             for label, path, payloads in (
                 (f"POST /maps of {size}x{size}", "/maps", bodies),
-                ("POST /missions of 10,000 posts", "/missions", [mission] * 4),
+                (
+                    "POST, GET, WS snapshot, cancel of missions of 10,000 posts",
+                    "/missions",
+                    [mission] * 4,
+                ),
             ):
                 answers: list[tuple[int, float]] = []
 
@@ -216,7 +222,14 @@ def server(size: int, rounds: int) -> None:
                                     )
                                     answers.append((r.status_code, time.perf_counter() - started))
                                     if path == "/missions" and r.status_code == 201:
-                                        await http.post(f"/missions/{r.json()['id']}/cancel")
+                                        # The mission read back whole, as a client and the
+                                        # viewer do: its resource, its websocket snapshot.
+                                        url = f"/missions/{r.json()['id']}"
+                                        await http.get(url)
+                                        ws_url = base.replace("http", "ws", 1) + url + "/ws"
+                                        async with websockets.connect(ws_url, max_size=None) as ws:
+                                            await ws.recv()
+                                        await http.post(f"{url}/cancel")
 
                                 await asyncio.gather(*(one(b) for b in payloads))
 

@@ -46,24 +46,28 @@ def current_goals(row: MissionRow, live: list[dict[str, Any]] | None = None) -> 
     return out
 
 
-def known_obstacles(row: MissionRow) -> list[KnownObstacleOut]:
-    """The obstacles the world model knows: those posted known, then those added live. Built
-    without validating them again (the request and each update were validated when they came):
-    a mission of 10,000 obstacles lists them in ~10 ms, not ~50."""
+def known_obstacle_data(row: MissionRow) -> list[dict[str, Any]]:
+    """``known_obstacles`` as the JSON its models dump to, built from the stored request as it
+    is: a mission of 10,000 obstacles is listed in a few milliseconds, where 10,000 models
+    took ~35 ms of their thread's GIL (which the event loop's thread then waited for)."""
     out = [
-        KnownObstacleOut.model_construct(
-            id=f"request-{i}", source="request", added_at=0.0, obstacle=o
-        )
+        {"id": f"request-{i}", "source": "request", "added_at": 0.0, "obstacle": o}
         for i, o in enumerate(row.request.get("obstacles", []))
         if o.get("known", True)
     ]
     for n, event in enumerate(updates(row, "add_obstacle")):
-        out.append(
-            KnownObstacleOut(
-                id=f"live-{n}",
-                source="live",
-                added_at=float(event["t"]),
-                obstacle=dict(event["detail"]["obstacle"]),
-            )
+        live = KnownObstacleOut(
+            id=f"live-{n}",
+            source="live",
+            added_at=float(event["t"]),
+            obstacle=dict(event["detail"]["obstacle"]),
         )
+        out.append(live.model_dump(mode="json"))
     return out
+
+
+def known_obstacles(row: MissionRow) -> list[KnownObstacleOut]:
+    """The obstacles the world model knows: those posted known, then those added live. Built
+    without validating them again (the request and each update were validated when they
+    came)."""
+    return [KnownObstacleOut.model_construct(**o) for o in known_obstacle_data(row)]

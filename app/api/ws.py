@@ -13,12 +13,13 @@ import json
 from collections.abc import Awaitable
 from typing import Any, TypeVar
 
+import orjson
 from anyio import to_thread
 from fastapi import APIRouter, WebSocket, WebSocketDisconnect
 from starlette.websockets import WebSocketState
 
 from app.api.deps import Services
-from app.api.missions import plan_of, resource
+from app.api.missions import plan_of, resource_data
 from app.missions.status import TERMINAL
 from app.service.frames import EndFrame
 from app.store.models import MissionRow
@@ -56,13 +57,16 @@ async def _receive(ws: WebSocket, closed: asyncio.Event) -> None:
         closed.set()
 
 
-def snapshot(svc: Services, row: MissionRow) -> dict[str, Any]:
-    """The first frame: the mission and its plan as the store has them now."""
-    return {
+def snapshot(svc: Services, row: MissionRow) -> str:
+    """The first frame: the mission and its plan as the store has them now, as the frame's text
+    (written in the snapshot's thread: a large mission's is megabytes, which the standard
+    library's encoder would write on the event loop in one piece)."""
+    frame = {
         "type": "snapshot",
-        "mission": resource(svc, row).model_dump(mode="json"),
+        "mission": resource_data(svc, row),
         "plan": plan_of(svc, row.id).model_dump(mode="json"),
     }
+    return orjson.dumps(frame).decode()
 
 
 def _retrieve(task: asyncio.Task[Any]) -> None:
@@ -114,9 +118,9 @@ async def mission_socket(ws: WebSocket, mission_id: str) -> None:
         channel = svc.hub.subscribe(mission_id)  # before the snapshot: no frame falls between
         made = to_thread.run_sync(snapshot, svc, row, limiter=svc.snapshots)
         here, first = await _unless_closed(closed, made)
-        if not here:
+        if not here or first is None:
             return
-        await ws.send_json(first)
+        await ws.send_text(first)
         if row.status in TERMINAL:
             await ws.send_json({"type": "end", "status": row.status, "reason": row.reason})
             return

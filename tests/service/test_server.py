@@ -42,6 +42,8 @@ def start_server(db: Path, **env_extra: str) -> tuple[subprocess.Popen[bytes], s
         "127.0.0.1",
         "--port",
         str(port),
+        "--ws-per-message-deflate",  # off, as ``screwsnake serve`` serves by default
+        "false",
     ]
     proc = subprocess.Popen(
         [*command, "--log-level", "warning"], env=env, cwd=Path(__file__).parents[2]
