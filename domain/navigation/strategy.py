@@ -50,6 +50,7 @@ class Running:
     grounded: Grounded
     left: float
     started: float | None = None  # model time of its first tick (a gait's clock)
+    command: Command | None = None  # every tick's (the move's control does not change)
 
 
 def held_joints(joints: Sequence[float]) -> tuple[float, float, float]:
@@ -280,12 +281,15 @@ class NavigationStrategy:
         return Running(action, grounded, grounded.duration)
 
     def _command(self, running: Running) -> Command:
+        if running.command is not None:
+            return running.command
         g = running.grounded
         assert running.started is not None
         control = g.control(running.started)
         if isinstance(control, PeriodicGait):
             self._gait = control
-        return Command(control, running.action.pddl, g.to_dict(), None)
+        running.command = Command(control, running.action.pddl, g.to_dict(), None)
+        return running.command
 
     def _finish_cycle(self, running: Running, t: float) -> Command | None:
         """Before a gait move, while the last gait move's cycles are not over (a replan cut it
