@@ -47,9 +47,11 @@ def current_goals(row: MissionRow, live: list[dict[str, Any]] | None = None) -> 
 
 
 def known_obstacle_data(row: MissionRow) -> list[dict[str, Any]]:
-    """``known_obstacles`` as the JSON its models dump to, built from the stored request as it
-    is: a mission of 10,000 obstacles is listed in a few milliseconds, where 10,000 models
-    took ~35 ms of their thread's GIL (which the event loop's thread then waited for)."""
+    """The obstacles the world model knows, those posted known, then those added live, as the
+    JSON their ``KnownObstacleOut`` models dump to, built from the stored request as it is
+    (the request and each update were validated when they came): a mission of 10,000
+    obstacles is listed in a few milliseconds, where 10,000 models took ~35 ms of their
+    thread's GIL (which the event loop's thread then waited for)."""
     out = [
         {"id": f"request-{i}", "source": "request", "added_at": 0.0, "obstacle": o}
         for i, o in enumerate(row.request.get("obstacles", []))
@@ -64,10 +66,3 @@ def known_obstacle_data(row: MissionRow) -> list[dict[str, Any]]:
         )
         out.append(live.model_dump(mode="json"))
     return out
-
-
-def known_obstacles(row: MissionRow) -> list[KnownObstacleOut]:
-    """The obstacles the world model knows: those posted known, then those added live. Built
-    without validating them again (the request and each update were validated when they
-    came)."""
-    return [KnownObstacleOut.model_construct(**o) for o in known_obstacle_data(row)]

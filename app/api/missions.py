@@ -88,8 +88,8 @@ def resource_data(
 def resource_json(
     svc: Services, row: MissionRow, transitions: list[TransitionOut] | None = None
 ) -> bytes:
-    """``resource_data`` as the answer's JSON, for a route to build in a thread (FastAPI would check
-    and write a returned model on the event loop)."""
+    """``resource_data`` as the answer's JSON, for a route to build in a thread (FastAPI would
+    check and write a returned model on the event loop)."""
     return orjson.dumps(resource_data(svc, row, transitions))
 
 

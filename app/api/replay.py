@@ -4,13 +4,13 @@ from __future__ import annotations
 
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Query
+from fastapi import APIRouter, Query, Response
 from pydantic import BaseModel, Field
 
 from app.api.deps import MissionId, Svc
 from app.api.errors import responses
-from app.api.known import current_goals, known_obstacles
-from app.api.missions import found, plan_of
+from app.api.known import current_goals, known_obstacle_data
+from app.api.missions import found, json_answer, plan_of
 from app.api.schemas import GoalOut, KnownObstacleOut, ReplanOut
 from app.service.world_history import world_at
 
@@ -95,14 +95,14 @@ def get_world(
             "seconds (none: as it is now, or as it ended)",
         ),
     ] = None,
-) -> WorldOut:
+) -> Response:
     """The world model of a mission: while it runs, as stored about once a second; with `at`,
     as it was then (a finished mission's goals and obstacles are those that had come by
     then)."""
     row = found(svc, mission_id)
     state = row.state or {}
     sensed, contacts = state.get("sensed", []), state.get("contacts", [])
-    goals, obstacles = current_goals(row), known_obstacles(row)
+    goals, obstacles = current_goals(row), known_obstacle_data(row)
     model_time = state.get("model_time", 0.0)
     if at is not None:
         changes = svc.store.world_history(mission_id)
@@ -110,20 +110,22 @@ def get_world(
             cells = world_at(changes, at)
             sensed, contacts, model_time = cells["sensed"], cells["contacts"], min(at, model_time)
         goals = [g for g in goals if g.added_at <= at]
-        obstacles = [o for o in obstacles if o.added_at <= at]
-    return WorldOut(
+        obstacles = [o for o in obstacles if o["added_at"] <= at]
+    world = WorldOut(
         mission=mission_id,
         model_time=model_time,
         resolution=state.get("resolution"),
         sensed=sensed,
         contacts=contacts,
         goals=goals,
-        obstacles=obstacles,
     )
+    # The known obstacles as the data the store holds, and the answer written in this thread
+    # (``app.api.missions.resource_data``: 10,000 of them as models held the GIL for tens of ms).
+    return json_answer(world.model_dump(mode="json") | {"obstacles": obstacles})
 
 
 @router.get("/missions/{mission_id}/replay", response_model=ReplayOut, responses=responses(404))
-def get_replay(mission_id: MissionId, svc: Svc) -> ReplayOut:
+def get_replay(mission_id: MissionId, svc: Svc) -> Response:
     """Trajectory, every plan version with its model time, replans and events of a mission."""
     row = found(svc, mission_id)
     state = row.state or {}
@@ -137,7 +139,7 @@ def get_replay(mission_id: MissionId, svc: Svc) -> ReplayOut:
         )
         for p in svc.store.plans(mission_id, texts=False)
     ]
-    return ReplayOut(
+    replay = ReplayOut(
         mission=mission_id,
         status=row.status,
         trajectory=svc.store.trajectory(mission_id) or [],
@@ -146,5 +148,5 @@ def get_replay(mission_id: MissionId, svc: Svc) -> ReplayOut:
         events=state.get("events", []),
         world=[WorldVersion.model_validate(c) for c in svc.store.world_history(mission_id) or []],
         goals=current_goals(row),
-        obstacles=known_obstacles(row),
     )
+    return json_answer(replay.model_dump(mode="json") | {"obstacles": known_obstacle_data(row)})
