@@ -43,7 +43,7 @@ from domain.navigation.search.reach import lattice_reaches
 from domain.navigation.settings import NavigationSettings
 from domain.pyperplan_adapter import HEURISTICS, CancelFlag, SearchStopped, stop_if_due
 from domain.world import WorldModel
-from sim.robot import Array
+from sim.robot import Array, head_tip
 from sim.world import Bounds
 
 CACHES_KEPT = 8  # motion caches kept (one per body and margin); the least recently used goes
@@ -95,10 +95,14 @@ class Planner:
 
     # -- what one replan reads --------------------------------------------------------------
     def inputs(
-        self, world: WorldModel, table: MotionTable, near: tuple[float, float] | None = None
+        self,
+        world: WorldModel,
+        table: MotionTable,
+        near: tuple[float, float, float] | None = None,
     ) -> CostInputs:
         """The costmap's views as ``table``'s cost evaluation reads them, never-observed space
-        priced from where the robot is (``near``; ``None``: as if it were everywhere)."""
+        priced from where the robot is and where its head looks (``near``, its pose; ``None``:
+        as if it were everywhere)."""
         grid, b = self.grid, self.grid.bounds
         lethal = world.lethal_clearance()
         if lethal.shape != (grid.nx, grid.ny):
@@ -107,7 +111,11 @@ class Planner:
         geo = np.array([b.xmin, b.ymin, self.settings.resolution, b.xmin, b.xmax, b.ymin, b.ymax])
         params = cost_parameters(self.settings.costs)
         c = self.settings.costs
-        risk = world.risk(near, c.sensing_horizon, c.beyond_horizon)
+        at, facing = None, None
+        if near is not None:
+            tip = head_tip(np.asarray(near, dtype=float), world.geometry)
+            at, facing = (near[0], near[1]), (float(tip[0]), float(tip[1]), near[2] + math.pi)
+        risk = world.risk(at, c.sensing_horizon, c.beyond_horizon, facing)
         blocked = world.blocked()
         quiet = quiet_cells(risk, blocked, table.cell_reach_new + 1)
         return CostInputs(grid.nx, grid.ny, gf, lethal, geo, risk, blocked, quiet, params)
@@ -283,7 +291,7 @@ class Planner:
 
     def _plan(self, request: PlanRequest, started: float, deadline: float) -> Plan | Failure:
         table, world = request.table, request.world
-        inputs = self.inputs(world, table, (request.pose[0], request.pose[1]))
+        inputs = self.inputs(world, table, request.pose)
         cache = self.cache(table, world, inputs)
         start = self.key_of(table, request.pose)
         if request.previous is not None and self.search == searches.COST_SEARCH:

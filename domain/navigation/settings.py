@@ -52,13 +52,14 @@ class CostSettings:
     """metres a plan would go round to avoid a move that would find its way blocked: the
     approach that sensing then stops, the way back out and a replan (a few body lengths)"""
     sensing_horizon: float = 1.5
-    """metres from the robot within which never-observed space carries its whole prior risk
-    (the head's ring reaches 1.5 m: what lies within it may be swept before anything looks
-    at it) ..."""
+    """metres from the robot within which never-observed space behind the head's tip carries
+    its whole prior risk (the head's ring reaches 1.5 m: what lies within it, beside or behind
+    the body, may be swept before anything looks at it) ..."""
     beyond_horizon: float = 0.2
-    """... and the share of that risk it carries farther out: a way there, mostly head first,
-    will have looked at most of it by the time the body arrives (pricing it whole makes
-    every distant turn dear and the search wide; 1 prices it whole)"""
+    """... and the share of that risk it carries farther out or ahead of the head: a way
+    there, mostly head first, will have looked at most of it by the time the body arrives
+    (pricing it whole makes every distant turn dear and the search wide, and a turn ahead
+    as dear as one where the robot stands; 1 prices it whole)"""
 
     def __post_init__(self) -> None:
         _check_finite(self, "cost settings")

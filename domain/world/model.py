@@ -239,17 +239,24 @@ class WorldModel:
         near: tuple[float, float] | None = None,
         horizon: float = math.inf,
         beyond: float = 1.0,
+        facing: tuple[float, float, float] | None = None,
     ) -> Array:
         """Per cell, log P(free) of what the body may touch there unseen (<= 0): the contact
         evidence; for never-observed cells the continuation of sensed obstacles and the prior
         of ``unobserved_density``. With ``near`` (the robot's position), never-observed cells
         farther than ``horizon`` from it keep only ``beyond`` of the prior: what is that far
         will most likely have been looked at by the time the body gets there, and what the
-        head then finds in the way is planned round. A read-only array kept until the layers
-        (or the robot's cell) change."""
+        head then finds in the way is planned round. So do those ahead of the head (``facing``:
+        its tip and the heading it looks along), however near: the body reaches them head
+        first, after the head's rays have swept them (the cells behind and beside the body are
+        what a turn or a tail-first move sweeps unseen). A read-only array kept until the
+        layers (or the robot's cell and heading) change."""
         far = near is not None and beyond != 1.0 and math.isfinite(horizon)
         cell = self.cell_of(*near) if far and near is not None else None
-        key = (self.version, self.soft_version, cell, horizon, beyond)
+        look = None
+        if far and facing is not None:  # the tip to a cell, its heading to ~1/64 turn
+            look = (self.cell_of(facing[0], facing[1]), round(facing[2] * 32 / math.pi) % 64)
+        key = (self.version, self.soft_version, cell, look, horizon, beyond)
         if self._risk is None or self._risk[0] != key:
             whole = np.where(~self._observed.observed, self.settings.unobserved_log_free, 0.0)
             prior = whole
@@ -258,6 +265,12 @@ class WorldModel:
                 centre = self.centre_of(*cell) if cell is not None else near
                 i, j, distance = cells_round(self.grid.xs, self.grid.ys, centre, horizon)
                 keep = distance <= horizon
+                if facing is not None:
+                    tx, ty, heading = facing
+                    ahead = (self.grid.xs[i] - tx) * math.cos(heading) + (
+                        self.grid.ys[j] - ty
+                    ) * math.sin(heading)
+                    keep &= ahead <= 0.0
                 prior[i[keep], j[keep]] = whole[i[keep], j[keep]]
             out = self._blocked_grid() + prior
             out.flags.writeable = False

@@ -431,6 +431,22 @@ def test_never_observed_space_beyond_the_horizon_carries_a_share_of_the_prior():
     assert np.array_equal(model.risk(), model.risk((0.0, 0.0), 1.0, 1.0))  # share 1: whole
 
 
+def test_never_observed_space_ahead_of_the_head_carries_the_share_however_near():
+    """The body reaches what lies ahead of its head head first, after the head's rays swept
+    it: within the horizon, only the space behind the head's tip (beside and behind the
+    body, where a turn or a tail-first move sweeps unseen) keeps the whole prior."""
+    model = WorldModel(Bounds(-3.0, 3.0, -3.0, 3.0))
+    prior = model.settings.unobserved_log_free
+    looking_east = model.risk((0.0, 0.0), 1.0, 0.25, facing=(0.1, 0.0, 0.0))
+    assert looking_east[model.cell_of(0.6, 0.3)] == pytest.approx(0.25 * prior)  # ahead
+    assert looking_east[model.cell_of(-0.6, 0.3)] == pytest.approx(prior)  # behind the tip
+    assert looking_east[model.cell_of(0.0, 0.8)] == pytest.approx(prior)  # beside the body
+    assert looking_east[model.cell_of(-1.5, 0.0)] == pytest.approx(0.25 * prior)  # far
+    looking_west = model.risk((0.0, 0.0), 1.0, 0.25, facing=(-0.1, 0.0, math.pi))
+    assert looking_west[model.cell_of(0.6, 0.3)] == pytest.approx(prior)  # now behind
+    assert looking_west[model.cell_of(-0.6, 0.3)] == pytest.approx(0.25 * prior)
+
+
 def test_the_body_lying_over_sensed_cells_frees_them():
     model = WorldModel(Bounds(-2.0, 2.0, -2.0, 2.0))
     for _ in range(3):  # a phantom on the body's axis
