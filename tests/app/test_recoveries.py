@@ -61,9 +61,11 @@ def test_the_printed_tree_shows_the_recovery_node_and_every_recovery() -> None:
 
 
 def test_a_mission_that_touches_something_backs_off_and_still_reaches_its_goal() -> None:
-    """A field of hidden posts (a tuning seed of the generated worlds) where the blind tail
-    touches a post as the body first turns towards the goal."""
-    spec = MissionSpec.model_validate(layout("posts", 3))
+    """A field of hidden posts (a tuning seed of the generated worlds) seen by noisy range
+    sensors (σ 0.05 m): the body touches a post on the way."""
+    mission = layout("posts", 1)
+    mission["sensors"] = {**mission.get("sensors", {}), "noise": 0.05}
+    spec = MissionSpec.model_validate(mission)
     snapshots: list[dict[str, Any]] = []
     runner = MissionRunner(spec, LIB, on_tick=lambda ctx, snap: snapshots.append(snap))
     result = runner.run()

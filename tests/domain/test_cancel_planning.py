@@ -56,7 +56,7 @@ def long_request(cancel) -> tuple[Planner, PlanRequest]:
     bounds, obstacles = scene("cluttered", 6.0, 1)
     world = WorldModel(bounds, obstacles, SETTINGS.costmap)
     p = Planner(bounds, SETTINGS)
-    x, y, psi = (float(v) for v in p.pose_of(STRAIGHT, (*p.grid.cell(-2.0, -2.0), 40)))
+    x, y, psi = (float(v) for v in p.pose_of(STRAIGHT, (*p.grid.cell(-2.0, -2.0), 8)))
     request = PlanRequest((x, y, psi), STRAIGHT, legs([(2.2, 2.2)]), True, world, None, cancel)
     return p, request
 

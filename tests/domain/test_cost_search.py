@@ -184,7 +184,7 @@ def test_what_the_motion_cache_keeps_is_what_a_fresh_evaluation_gives(seed: int)
     fresh = Planner(bounds, SETTINGS).plan(PlanRequest(pose, STRAIGHT, goals, True, world))
     assert isinstance(again, Plan) and isinstance(fresh, Plan)
     assert again.pddl_plan == fresh.pddl_plan and again.expansions == fresh.expansions
-    inputs = p.inputs(world, STRAIGHT, pose[:2])  # priced from the robot, as the plan was
+    inputs = p.inputs(world, STRAIGHT, pose)  # priced from the robot, as the plan was
     cache = p.cache(STRAIGHT, world, inputs)
     kt, _ = p.tables(STRAIGHT)
     lethal, risky = cache.lethal, cache.risk

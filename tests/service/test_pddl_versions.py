@@ -26,12 +26,12 @@ from primitives.library import load_bundled
 from tests.app.test_pddl_export import without_costs
 from tests.service.test_api import wait_end
 
-# Ten goals in an open field: one tour whose problem lists ten legs' searches (~15 MB of PDDL)
-# while the mission itself plans and runs in about a second.
+# Fourteen goals in an open field: one tour whose problem lists fourteen legs' searches (over
+# 10 MB of PDDL) while the mission itself plans and runs in seconds.
 TOUR = {
     "goals": [
         {"x": 1.0 + 0.8 * (i % 5), "y": (-1) ** (i // 5) * (0.6 + 0.5 * (i // 5)), "tolerance": 0.2}
-        for i in range(10)
+        for i in range(14)
     ],
     "bounds": {"xmin": -2, "xmax": 7, "ymin": -5, "ymax": 5},
     "time_limit": 900,
@@ -116,13 +116,25 @@ def test_a_large_problem_is_streamed_compressed_and_capped(lean: TestClient) -> 
     assert missing.status_code == 404
 
 
-def test_problems_rendered_when_asked_parse_and_solve_with_pyperplan(client: TestClient) -> None:
+@pytest.fixture
+def roomy(tmp_path: Path) -> Iterator[TestClient]:
+    """A service that holds up to 32 MB of problems inline in GET /pddl (a leg's problem lists
+    up to ``exported_states`` searched states with their successors: megabytes)."""
+    settings = Settings(
+        database_url=f"sqlite:///{tmp_path / 'api.db'}", warm_up=False, pddl_inline=32 * MB
+    )
+    with TestClient(create_app(settings)) as c:
+        yield c
+
+
+def test_problems_rendered_when_asked_parse_and_solve_with_pyperplan(roomy: TestClient) -> None:
+    client = roomy
     mission = client.post("/missions", json=SMALL).json()
     assert wait_end(client, mission["id"])["status"] == "succeeded"
     listed = client.get(f"/missions/{mission['id']}/pddl").json()
     assert len(listed) >= 2 and listed[0]["problem_inline"]
     inline = [v for v in listed if v["problem_inline"]]  # the first, while they fit in all
-    assert sum(v["problem_bytes"] for v in inline) <= Settings().pddl_inline
+    assert sum(v["problem_bytes"] for v in inline) <= 32 * MB
     assert all(len(v["problem"].encode()) == v["problem_bytes"] for v in inline)
     solved = [v for v in listed if v["plan"]]
     assert solved and client.get(solved[0]["problem_url"]).text.count("(visited g") == 2
