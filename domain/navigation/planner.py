@@ -349,20 +349,26 @@ class Planner:
                 self.keep_for_export(task, actions, here_key)
                 plan.actions += actions
                 continue
+            # A start resting closer than its margin moves out by its own relaxed motions
+            # only: a search that never got past them says nothing of the goal (start
+            # blocked; the recoveries back the body off first). Once it did, what it ran out
+            # of is what the body reaches at its margin.
+            out_of_start = 1 + len(table.motions)
             if found.status == "exhausted":
-                if touching and leg == 0:
+                if touching and leg == 0 and found.expansions <= out_of_start:
                     return self._blocked(table.shape, plan.expansions)
                 return self._unreachable(world, goal, table.shape, "search", plan.expansions)
             # The budget ran out: go towards the best node if it is closer, unless the
-            # lethal layer proves the goal out of reach.
+            # lethal layer proves the goal out of reach (the relaxed body's flood answers
+            # from the configurations where the body lies, and says nothing when it rests
+            # where none passes).
             if not Feasibility(self.grid, table, inputs.values, self.settings.margin).reaches(
                 here_key, (goal.x, goal.y), leg_reach(goal)
             ):
-                if touching and leg == 0:
-                    return self._blocked(table.shape, plan.expansions)
                 return self._unreachable(world, goal, table.shape, "body", plan.expansions)
-            if lattice_reaches(task, heuristic, s.reach_states) is False:
-                if touching and leg == 0:
+            walk = lattice_reaches(task, heuristic, s.reach_states)
+            if walk.reaches is False:
+                if touching and leg == 0 and walk.side == "start" and walk.met <= out_of_start:
                     return self._blocked(table.shape, plan.expansions)
                 return self._unreachable(world, goal, table.shape, "search", plan.expansions)
             start_h = heuristic(_Root(task.initial_state))

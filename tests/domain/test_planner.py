@@ -87,6 +87,46 @@ def test_a_spent_budget_still_proves_a_goal_no_motion_sequence_reaches(budget: i
     assert out.reason.startswith("unreachable:") and "straight" in out.reason
 
 
+def room(door: float) -> list:
+    """A 1.6 m x 1 m room east of the origin, a ``door`` wide gap in its west wall."""
+    x0, x1, y0, y1, t, dlo = 1.0, 2.6, -0.5, 0.5, 0.1, -0.03
+    dhi = dlo + door
+    return [
+        rectangle((x0 + x1) / 2, y1 + t / 2, x1 - x0 + 2 * t, t),
+        rectangle((x0 + x1) / 2, y0 - t / 2, x1 - x0 + 2 * t, t),
+        rectangle(x1 + t / 2, (y0 + y1) / 2, t, y1 - y0),
+        rectangle(x0 - t / 2, (y0 + dlo) / 2, t, dlo - y0),
+        rectangle(x0 - t / 2, (dhi + y1) / 2, t, y1 - dhi),
+    ]
+
+
+@pytest.mark.parametrize("door", [0.17, 0.19, 0.2])
+def test_a_goal_in_a_room_the_body_cannot_enter_is_proved_from_the_rooms_side(door: float) -> None:
+    """The robot in an open 10 m arena, its goal in a room whose door the relaxed body passes
+    (the door is wider than the body less the half-cell relaxation) and the body with its margin
+    does not; the search's budget and the walk's are far smaller than the open side's states.
+    The walk from the goal's side (the room's few states) runs out and proves it."""
+    settings = dataclasses.replace(
+        SETTINGS, search=SearchSettings(expansions=300, reach_states=20_000)
+    )
+    out = failure(
+        bounds=Bounds(-5, 5, -5, 5), obstacles=room(door), pose=(-3.0, 0.0, 0.0),
+        goals=[(2.0, 0.0)], settings=settings,
+    )  # fmt: skip
+    assert (out.kind, out.proof, out.goal) == ("unreachable", "known", 0)
+    assert out.reason.startswith("unreachable: no collision-free sequence of straight")
+
+
+def test_a_room_the_body_can_enter_is_never_proved_unreachable_on_a_small_budget() -> None:
+    settings = dataclasses.replace(
+        SETTINGS, search=SearchSettings(expansions=300, reach_states=20_000)
+    )
+    _, _, out = plan(
+        Bounds(-5, 5, -5, 5), room(0.5), (-3.0, 0.0, 0.0), [(2.0, 0.0)], settings=settings
+    )
+    assert isinstance(out, Plan) or out.kind == "timeout", out
+
+
 @pytest.mark.parametrize("budget", [1, 40])
 def test_a_spent_budget_in_the_open_is_never_unreachable(budget: int) -> None:
     """The same small budgets where a way exists: a partial plan or a timeout, never a proof."""
@@ -98,12 +138,25 @@ def test_a_spent_budget_in_the_open_is_never_unreachable(budget: int) -> None:
     assert isinstance(out, Plan) or out.kind == "timeout", out
 
 
-def test_a_start_against_a_wall_with_no_way_out_is_start_blocked() -> None:
-    """The same pen, its south wall 1 mm into the resting body: no plan leads out, and no
-    proof about the goal is claimed (the recoveries back off first)."""
-    out = failure(bounds=ARENA, obstacles=pen(-0.074), pose=(0.0, 0.0, 0.0), goals=[(-1.0, 0.0)])
+def test_a_start_wedged_with_no_way_out_is_start_blocked() -> None:
+    """A pen 1 mm into the resting body's south side and 2.5 cm off its north side: no motion
+    at the margin leads anywhere from where the start's own motions go, and no proof about the
+    goal is claimed (the recoveries back off first)."""
+    north = rectangle(0.45, 0.15, 1.5, 0.1)  # the pen's north wall, 0.1 m from the axis
+    out = failure(
+        bounds=ARENA, obstacles=[north, *pen(-0.074)[1:]], pose=(0.0, 0.0, 0.0),
+        goals=[(-1.0, 0.0)],
+    )  # fmt: skip
     assert (out.kind, out.proof, out.goal) == ("start_blocked", None, None)
     assert out.reason.startswith("start blocked: the straight body rests closer")
+
+
+def test_a_start_touching_a_wall_of_a_closed_pen_it_can_move_in_is_unreachable() -> None:
+    """The pen 1 mm into the resting body, with room to move inside: the search left the
+    start and ran out of what the body reaches at its margin, a proof about the goal."""
+    out = failure(bounds=ARENA, obstacles=pen(-0.074), pose=(0.0, 0.0, 0.0), goals=[(-1.0, 0.0)])
+    assert (out.kind, out.proof, out.goal) == ("unreachable", "known", 0)
+    assert out.expansions > 1 + len(STRAIGHT.motions)
 
 
 def test_a_spent_budget_with_no_progress_is_a_timeout_naming_the_budget() -> None:

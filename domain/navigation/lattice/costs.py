@@ -159,6 +159,54 @@ def lethal_at(  # pragma: no cover - compiled
 
 
 @jit
+def motion_slack(  # pragma: no cover - compiled
+    k: int,
+    m: int,
+    i: int,
+    j: int,
+    nx: int,
+    ny: int,
+    values: Array,
+    geo: Array,
+    checks: Array,
+    check_needs: Array,
+    check_fails: Array,
+    check_points: Array,
+    grouped: Array,
+    check_segments: Array,
+) -> float:
+    """The least slack motion ``m`` keeps out of cell ``(i, j)`` at bin ``k`` beyond what its
+    points need (a bound, >= 0), or -1 when it is invalid: each of its cells read at its centre
+    (``values``: the lethal clearance there); a cell whose clearance neither passes nor fails
+    all its points (``KernelTable``) reads its points exactly, between the centres
+    (``lethal_at``; ``geo``: the grid and its walls). A cell off the grid is invalid."""
+    cx = geo[0] + (i + 0.5) * geo[2]
+    cy = geo[1] + (j + 0.5) * geo[2]
+    slack = math.inf
+    for c in range(check_segments[k, m], check_segments[k, m + 1]):
+        ci, cj = i + checks[k, c, 0], j + checks[k, c, 1]
+        if ci < 0 or ci >= nx or cj < 0 or cj >= ny:
+            return -1.0
+        here = values[ci, cj]
+        if here >= check_needs[k, c]:
+            s = here - check_needs[k, c]  # (a bound: every point keeps at least this)
+        elif here < check_fails[k, c]:
+            return -1.0
+        else:  # between: the points themselves
+            s = math.inf
+            for q in range(check_points[k, c], check_points[k, c + 1]):
+                x, y = cx + grouped[k, q, 0], cy + grouped[k, q, 1]
+                t = lethal_at(values, geo, x, y) - grouped[k, q, 2]
+                if t < s:
+                    s = t
+            if not s >= 0.0:
+                return -1.0
+        if s < slack:
+            slack = s
+    return slack
+
+
+@jit
 def lethal_part(  # pragma: no cover - compiled
     number: int,
     nx: int,
@@ -181,17 +229,13 @@ def lethal_part(  # pragma: no cover - compiled
 ) -> int:
     """The valid motions of state ``number`` as a bitmask (bit ``m``: motion ``m``), and into
     ``base`` each valid motion's length and closeness cost (``inf`` for the others): what the
-    lethal layer alone decides. Each motion's cells are read at their centres (``values``: the
-    lethal clearance there); a cell whose clearance neither passes nor fails all its points
-    (``KernelTable``) reads its points exactly, between the centres (``lethal_at``; ``geo``:
-    the grid and its walls). ``open_need``: the centroid clearance past which every point of
-    every motion keeps its need and more than the inflation radius (open space: nothing is
-    read); ``params``: ``cost_parameters``. A motion reaching off the grid is invalid."""
+    lethal layer alone decides (``motion_slack``). ``open_need``: the centroid clearance past
+    which every point of every motion keeps its need and more than the inflation radius (open
+    space: nothing is read); ``params``: ``cost_parameters``. A motion reaching off the grid is
+    invalid."""
     plane = nx * ny
     k, cell = number // plane, number % plane
     i, j = cell // ny, cell % ny
-    cx = geo[0] + (i + 0.5) * geo[2]
-    cy = geo[1] + (j + 0.5) * geo[2]
     n_motions = check_segments.shape[1] - 1
     radius, decay, penalty, reverse = params[0], params[1], params[2], params[5]
     open_space = values[i, j] >= open_need + radius
@@ -205,33 +249,13 @@ def lethal_part(  # pragma: no cover - compiled
             if not (0 <= ni < nx and 0 <= nj < ny):
                 continue
         slack = math.inf
-        ok = True
         if not open_space:
-            for c in range(check_segments[k, m], check_segments[k, m + 1]):
-                ci, cj = i + checks[k, c, 0], j + checks[k, c, 1]
-                if ci < 0 or ci >= nx or cj < 0 or cj >= ny:
-                    ok = False
-                    break
-                here = values[ci, cj]
-                if here >= check_needs[k, c]:
-                    s = here - check_needs[k, c]  # (a bound: every point keeps at least this)
-                elif here < check_fails[k, c]:
-                    ok = False
-                    break
-                else:  # between: the points themselves
-                    s = math.inf
-                    for q in range(check_points[k, c], check_points[k, c + 1]):
-                        x, y = cx + grouped[k, q, 0], cy + grouped[k, q, 1]
-                        t = lethal_at(values, geo, x, y) - grouped[k, q, 2]
-                        if t < s:
-                            s = t
-                    if not s >= 0.0:
-                        ok = False
-                        break
-                if s < slack:
-                    slack = s
-        if not ok:
-            continue
+            slack = motion_slack(
+                k, m, i, j, nx, ny, values, geo, checks, check_needs, check_fails,
+                check_points, grouped, check_segments,
+            )  # fmt: skip
+            if slack < 0.0:
+                continue
         bits |= 1 << m
         close = math.exp(-slack / decay) if slack < radius else 0.0
         base[m] = lengths[m] * (1.0 + penalty * close) + reverse * lead_lengths[m]

@@ -9,17 +9,24 @@ finds a way quickly when there is one, and when the reachable states run out wit
 on the goal, no plan on this lattice and this lethal layer exists: a proof the cost search's
 budget could not give. It reads the same validity (``costs.lethal_part``) and the same window
 as the search, and stops at the task's deadline, a cancel, or ``states`` states.
+
+When the start's side is larger than the budget (an open arena round a closed room), the walk
+goes the other way too: from every state with the head on the goal, over the motions that
+lead into them (each predecessor's motion checked as the forward walk checks it,
+``costs.motion_slack``). The states that can reach the goal running out without the start
+among them is the same proof, from the side that is small when a goal is enclosed.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Literal, NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from domain.kernels import jit
-from domain.navigation.lattice.costs import lethal_part, state_costs
+from domain.navigation.lattice.costs import lethal_part, motion_slack, state_costs
 from domain.navigation.lattice.task import LatticeTask
 from domain.navigation.search.heuristic import CostHeuristic, state_heuristic
 from domain.pyperplan_adapter import stop_if_due
@@ -29,10 +36,18 @@ CHUNK = 4096  # states between checks of the deadline and the cancel flag
 REACHED, NONE, OVER, RUNNING = range(4)
 
 
-def lattice_reaches(task: LatticeTask, heuristic: CostHeuristic, states: int) -> bool | None:
-    """``True`` when some sequence of valid motions from the task's start puts the head on its
-    goal, ``False`` when none does, ``None`` when ``states`` states were met first. Raises
-    ``SearchStopped`` for a cancel or the deadline."""
+class Reach(NamedTuple):
+    """What the walk found: ``reaches`` (``None``: ``states`` states met first on both sides),
+    from which side it answered, and how many states the start's side met."""
+
+    reaches: bool | None
+    side: Literal["start", "goal"]
+    met: int
+
+
+def lattice_reaches(task: LatticeTask, heuristic: CostHeuristic, states: int) -> Reach:
+    """Whether some sequence of valid motions from the task's start puts the head on its goal
+    (``Reach``). Raises ``SearchStopped`` for a cancel or the deadline."""
     grid, table, kt, inputs = task.grid, task.table, task.kt, task.inputs
     window = task.window or (slice(0, grid.nx), slice(0, grid.ny))
     wi, wj = window
@@ -55,14 +70,130 @@ def lattice_reaches(task: LatticeTask, heuristic: CostHeuristic, states: int) ->
             heap_h, heap_s, count,
         )  # fmt: skip
         if status == REACHED:
+            return Reach(True, "start", int(count[1]))
+        if status == NONE:
+            return Reach(False, "start", int(count[1]))
+        if status == OVER:
+            return Reach(_reaches_back(task, states, near, dims), "goal", int(count[1]))
+        if int(count[0]) + len(table.motions) + 1 > len(heap_h):
+            heap_h = np.concatenate([heap_h, np.empty(len(heap_h))])
+            heap_s = np.concatenate([heap_s, np.empty(len(heap_s), dtype=np.int64)])
+
+
+def predecessors(deltas: NDArray[np.int64], K: int) -> tuple[NDArray[np.int64], ...]:
+    """Per bin ``b``, the (bin, motion) pairs whose motion ends at bin ``b``: ``bins[b, :n]``,
+    ``motions[b, :n]`` with ``n = counts[b]``."""
+    ends = (np.arange(K)[:, None] + deltas[..., 2]) % K  # [K, M]
+    counts = np.bincount(ends.ravel(), minlength=K).astype(np.int64)
+    bins = np.zeros((K, max(1, int(counts.max()))), dtype=np.int64)
+    motions = np.zeros_like(bins)
+    for b in range(K):
+        k, m = np.nonzero(ends == b)
+        bins[b, : k.size], motions[b, : m.size] = k, m
+    return bins, motions, counts
+
+
+def _reaches_back(
+    task: LatticeTask,
+    states: int,
+    near: NDArray[np.int64],
+    dims: NDArray[np.int64],
+) -> bool | None:
+    """The walk from the goal's side (see the module's docstring): ``True`` when the start can
+    reach it, ``False`` when the states that can run out without it, ``None`` past
+    ``states``."""
+    grid, kt, inputs = task.grid, task.kt, task.inputs
+    K = grid.settings.orientations
+    start_bits, _ = state_costs(task.start_number, inputs, task.kt_start)
+    bins, motions, counts = predecessors(np.asarray(kt.deltas, dtype=np.int64), K)
+    seen = np.zeros(grid.size, dtype=np.bool_)
+    capacity = max(1 << 14, 2 * near.size)
+    heap_h, heap_s = np.empty(capacity), np.empty(capacity, dtype=np.int64)
+    count = np.zeros(3, dtype=np.int64)
+    si, sj, _k = task.start_key
+    while True:
+        stop_if_due(task.cancel, task.deadline)
+        status = _walk_back(
+            CHUNK, states, task.start_number, start_bits, near, dims, inputs.values,
+            inputs.geo, kt.checks, kt.check_needs, kt.check_fails, kt.check_points,
+            kt.grouped, kt.check_segments, kt.deltas, bins, motions, counts, si, sj, seen,
+            heap_h, heap_s, count,
+        )  # fmt: skip
+        if status == REACHED:
             return True
         if status == NONE:
             return False
         if status == OVER:
             return None
-        if int(count[0]) + len(table.motions) + 1 > len(heap_h):
+        if int(count[0]) + int(counts.max()) + 1 > len(heap_h):
             heap_h = np.concatenate([heap_h, np.empty(len(heap_h))])
             heap_s = np.concatenate([heap_s, np.empty(len(heap_s), dtype=np.int64)])
+
+
+@jit
+def _walk_back(  # pragma: no cover - compiled
+    chunk: int, limit: int, start: int, start_bits: int, near: NDArray[np.int64],
+    dims: NDArray[np.int64], values: Array, geo: Array, checks: Array, check_needs: Array,
+    check_fails: Array, check_points: Array, grouped: Array, check_segments: Array,
+    deltas: Array, bins: NDArray[np.int64], motions: NDArray[np.int64],
+    counts: NDArray[np.int64], si: int, sj: int, seen: NDArray[np.bool_], heap_h: Array, heap_s: NDArray[np.int64],
+    count: NDArray[np.int64],
+) -> int:  # fmt: skip
+    """Up to ``chunk`` states of the walk from the goal's side, nearest the start first (the
+    start's own motions read from ``start_bits``: its margin is its own)."""
+    nx, ny = dims[0], dims[1]
+    plane = nx * ny
+    if count[2] == 0:
+        count[2] = 1
+        for q in range(near.shape[0]):
+            n = near[q]
+            bc = n % plane
+            bi, bj = bc // ny, bc % ny
+            if seen[n] or not (dims[3] <= bi < dims[5] and dims[4] <= bj < dims[6]):
+                continue
+            if n == start:
+                return REACHED
+            seen[n] = True
+            p = count[0]
+            heap_h[p], heap_s[p] = math.hypot(bi - si, bj - sj), n
+            _sift_up(heap_h, heap_s, p)
+            count[0] = p + 1
+    done = 0
+    while count[0] > 0:
+        if done >= chunk or count[0] + counts.max() + 1 > heap_h.shape[0]:
+            return RUNNING
+        state = _pop(heap_h, heap_s, count[0])
+        count[0] -= 1
+        done += 1
+        count[1] += 1
+        if count[1] > limit:
+            return OVER
+        b, cell = state // plane, state % plane
+        ti, tj = cell // ny, cell % ny
+        for q in range(counts[b]):
+            k, m = bins[b, q], motions[b, q]
+            i, j = ti - deltas[k, m, 0], tj - deltas[k, m, 1]
+            if not (dims[3] <= i < dims[5] and dims[4] <= j < dims[6]):
+                continue
+            source = k * plane + i * ny + j
+            if seen[source]:
+                continue
+            if source == start:
+                if (start_bits >> m) & 1:
+                    return REACHED
+                continue
+            slack = motion_slack(
+                k, m, i, j, nx, ny, values, geo, checks, check_needs, check_fails,
+                check_points, grouped, check_segments,
+            )  # fmt: skip
+            if slack < 0.0:
+                continue
+            seen[source] = True
+            p = count[0]
+            heap_h[p], heap_s[p] = math.hypot(i - si, j - sj), source
+            _sift_up(heap_h, heap_s, p)
+            count[0] = p + 1
+    return NONE
 
 
 @jit
