@@ -73,6 +73,9 @@ class Planner:
         self.states = StatePool()  # search states shared by every search on this grid
         self._caches: dict[tuple[Any, ...], MotionCache] = {}
         self._maps: dict[tuple[Any, ...], Array] = {}
+        # The last start's table: a replan asks for it two or three times (the repair, the
+        # check of the start, the first leg), each a copy of the whole kernel table.
+        self._start: tuple[MotionTable, Key, Array, KernelTable] | None = None
         self.repairer = Repairer(self)
 
     # -- lattice states ---------------------------------------------------------------------
@@ -136,6 +139,14 @@ class Planner:
         rounds a surface it passes closely onto the cells round it), as close as it already
         is and no closer: a body can always move in a way that brings no part of it nearer
         to anything than it is, and it must not swing its far end in as deep."""
+        last = self._start
+        if last is not None and last[0] is table and last[1] == start and last[2] is inputs.values:
+            return last[3]
+        out = self._start_table(table, start, inputs)
+        self._start = (table, start, inputs.values, out)
+        return out
+
+    def _start_table(self, table: MotionTable, start: Key, inputs: CostInputs) -> KernelTable:
         s = self.settings
         kt = kernel_table(table, s.start_margin)
         i, j, k = start
