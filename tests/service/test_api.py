@@ -434,9 +434,8 @@ def test_goal_walled_in_by_hidden_obstacles_ends_failed_with_the_reason(client: 
     # search that finds no way within its budget, or within its wall-clock limit on a busy
     # machine): never on a claim the facts do not hold.
     assert m["status"] == "failed" and m["collisions"] == 0
-    assert m["reason"].startswith(("unreachable: goal 0 at (3, 3)", "planning timeout: no plan")), (
-        m["reason"]
-    )
+    proved = m["reason"].startswith("unreachable:") and "goal 0 at (3, 3)" in m["reason"]
+    assert proved or m["reason"].startswith("planning timeout: no plan"), m["reason"]
 
 
 def test_what_the_server_holds_is_out_of_the_collectors_full_passes_while_it_runs(
