@@ -136,8 +136,8 @@ def _walk_back(  # pragma: no cover - compiled
     dims: NDArray[np.int64], values: Array, geo: Array, checks: Array, check_needs: Array,
     check_fails: Array, check_points: Array, grouped: Array, check_segments: Array,
     deltas: Array, bins: NDArray[np.int64], motions: NDArray[np.int64],
-    counts: NDArray[np.int64], si: int, sj: int, seen: NDArray[np.bool_], heap_h: Array, heap_s: NDArray[np.int64],
-    count: NDArray[np.int64],
+    counts: NDArray[np.int64], si: int, sj: int, seen: NDArray[np.bool_], heap_h: Array,
+    heap_s: NDArray[np.int64], count: NDArray[np.int64],
 ) -> int:  # fmt: skip
     """Up to ``chunk`` states of the walk from the goal's side, nearest the start first (the
     start's own motions read from ``start_bits``: its margin is its own)."""
