@@ -309,7 +309,7 @@ export function drawScene(canvas, cam, scene) {
   if (resized && cam.fitted && cam.bounds) cam.fit(cam.bounds); // the whole arena stays in view
   ctx.setTransform(dpr, 0, 0, dpr, 0, 0); ctx.clearRect(0, 0, w, h);
   const out = {
-    labels: [], labelBoxes: [], obstacleBoxes: [], goals: [], obstacles: [], dots: [],
+    labels: [], labelBoxes: [], obstacleBoxes: [], goals: [], obstacles: [], dots: [], maps: [],
     planFaded: false, scale: "", events: 0, rays: 0, sensed: 0, view: { w, h, scale: cam.scale, fitted: cam.fitted },
   };
   const m = scene.mission;
@@ -318,7 +318,6 @@ export function drawScene(canvas, cam, scene) {
   ctx.strokeStyle = "#999"; ctx.lineWidth = 1;
   ctx.strokeRect(cam.X(b.xmin), cam.Y(b.ymax), (b.xmax - b.xmin) * cam.scale, (b.ymax - b.ymin) * cam.scale);
   const onScreen = (box) => box[2] >= 0 && box[0] <= w && box[3] >= 0 && box[1] <= h;
-  out.maps = [];
   for (const map of scene.maps || []) {
     if (!map.known && !scene.truth) continue; // a hidden map is the truth: shown with it
     drawMap(ctx, cam, map);
