@@ -29,11 +29,10 @@ from tests.domain.test_feasibility import BOX
 ARENA = Bounds(-2, 2, -2, 2)
 
 
-def pen(y0: float) -> list:
-    """A box round the resting straight body (head at the origin, heading 0: it lies along
-    +x) whose south wall is ``y0`` from the axis, with a 0.16 m door in its west wall: the
-    centroid could pass the door, the body cannot."""
-    x0, x1, y1, t, dlo, dhi = -0.2, 1.1, 0.3, 0.1, -0.03, 0.13
+def walled(x0: float, x1: float, y0: float, y1: float, dlo: float, dhi: float) -> list:
+    """The 0.1 m walls round the box ``[x0, x1] x [y0, y1]``, a door from ``dlo`` to ``dhi``
+    in its west wall."""
+    t = 0.1
     return [
         rectangle((x0 + x1) / 2, y1 + t / 2, x1 - x0 + 2 * t, t),
         rectangle((x0 + x1) / 2, y0 - t / 2, x1 - x0 + 2 * t, t),
@@ -41,6 +40,13 @@ def pen(y0: float) -> list:
         rectangle(x0 - t / 2, (y0 + dlo) / 2, t, dlo - y0),
         rectangle(x0 - t / 2, (dhi + y1) / 2, t, y1 - dhi),
     ]
+
+
+def pen(y0: float) -> list:
+    """A box round the resting straight body (head at the origin, heading 0: it lies along
+    +x) whose south wall is ``y0`` from the axis, with a 0.16 m door in its west wall: the
+    centroid could pass the door, the body cannot."""
+    return walled(-0.2, 1.1, y0, 0.3, -0.03, 0.13)
 
 
 def failure(**kw) -> Failure:
@@ -89,15 +95,7 @@ def test_a_spent_budget_still_proves_a_goal_no_motion_sequence_reaches(budget: i
 
 def room(door: float) -> list:
     """A 1.6 m x 1 m room east of the origin, a ``door`` wide gap in its west wall."""
-    x0, x1, y0, y1, t, dlo = 1.0, 2.6, -0.5, 0.5, 0.1, -0.03
-    dhi = dlo + door
-    return [
-        rectangle((x0 + x1) / 2, y1 + t / 2, x1 - x0 + 2 * t, t),
-        rectangle((x0 + x1) / 2, y0 - t / 2, x1 - x0 + 2 * t, t),
-        rectangle(x1 + t / 2, (y0 + y1) / 2, t, y1 - y0),
-        rectangle(x0 - t / 2, (y0 + dlo) / 2, t, dlo - y0),
-        rectangle(x0 - t / 2, (dhi + y1) / 2, t, y1 - dhi),
-    ]
+    return walled(1.0, 2.6, -0.5, 0.5, -0.03, -0.03 + door)
 
 
 @pytest.mark.parametrize("door", [0.17, 0.19, 0.2])

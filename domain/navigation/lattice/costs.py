@@ -164,6 +164,8 @@ def motion_slack(  # pragma: no cover - compiled
     m: int,
     i: int,
     j: int,
+    cx: float,
+    cy: float,
     nx: int,
     ny: int,
     values: Array,
@@ -175,13 +177,12 @@ def motion_slack(  # pragma: no cover - compiled
     grouped: Array,
     check_segments: Array,
 ) -> float:
-    """The least slack motion ``m`` keeps out of cell ``(i, j)`` at bin ``k`` beyond what its
-    points need (a bound, >= 0), or -1 when it is invalid: each of its cells read at its centre
-    (``values``: the lethal clearance there); a cell whose clearance neither passes nor fails
-    all its points (``KernelTable``) reads its points exactly, between the centres
-    (``lethal_at``; ``geo``: the grid and its walls). A cell off the grid is invalid."""
-    cx = geo[0] + (i + 0.5) * geo[2]
-    cy = geo[1] + (j + 0.5) * geo[2]
+    """The least slack motion ``m`` keeps out of cell ``(i, j)`` (its centre ``(cx, cy)``) at
+    bin ``k`` beyond what its points need (a bound, >= 0), or -1 when it is invalid: each of
+    its cells read at its centre (``values``: the lethal clearance there); a cell whose
+    clearance neither passes nor fails all its points (``KernelTable``) reads its points
+    exactly, between the centres (``lethal_at``; ``geo``: the grid and its walls). A cell off
+    the grid is invalid."""
     slack = math.inf
     for c in range(check_segments[k, m], check_segments[k, m + 1]):
         ci, cj = i + checks[k, c, 0], j + checks[k, c, 1]
@@ -236,6 +237,8 @@ def lethal_part(  # pragma: no cover - compiled
     plane = nx * ny
     k, cell = number // plane, number % plane
     i, j = cell // ny, cell % ny
+    cx = geo[0] + (i + 0.5) * geo[2]
+    cy = geo[1] + (j + 0.5) * geo[2]
     n_motions = check_segments.shape[1] - 1
     radius, decay, penalty, reverse = params[0], params[1], params[2], params[5]
     open_space = values[i, j] >= open_need + radius
@@ -251,7 +254,7 @@ def lethal_part(  # pragma: no cover - compiled
         slack = math.inf
         if not open_space:
             slack = motion_slack(
-                k, m, i, j, nx, ny, values, geo, checks, check_needs, check_fails,
+                k, m, i, j, cx, cy, nx, ny, values, geo, checks, check_needs, check_fails,
                 check_points, grouped, check_segments,
             )  # fmt: skip
             if slack < 0.0:

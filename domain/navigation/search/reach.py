@@ -154,10 +154,7 @@ def _walk_back(  # pragma: no cover - compiled
             if n == start:
                 return REACHED
             seen[n] = True
-            p = count[0]
-            heap_h[p], heap_s[p] = math.hypot(bi - si, bj - sj), n
-            _sift_up(heap_h, heap_s, p)
-            count[0] = p + 1
+            _push(heap_h, heap_s, count, math.hypot(bi - si, bj - sj), n)
     done = 0
     while count[0] > 0:
         if done >= chunk or count[0] + counts.max() + 1 > heap_h.shape[0]:
@@ -182,18 +179,28 @@ def _walk_back(  # pragma: no cover - compiled
                 if (start_bits >> m) & 1:
                     return REACHED
                 continue
+            cx, cy = geo[0] + (i + 0.5) * geo[2], geo[1] + (j + 0.5) * geo[2]
             slack = motion_slack(
-                k, m, i, j, nx, ny, values, geo, checks, check_needs, check_fails,
+                k, m, i, j, cx, cy, nx, ny, values, geo, checks, check_needs, check_fails,
                 check_points, grouped, check_segments,
             )  # fmt: skip
             if slack < 0.0:
                 continue
             seen[source] = True
-            p = count[0]
-            heap_h[p], heap_s[p] = math.hypot(i - si, j - sj), source
-            _sift_up(heap_h, heap_s, p)
-            count[0] = p + 1
+            _push(heap_h, heap_s, count, math.hypot(i - si, j - sj), source)
     return NONE
+
+
+@jit
+def _push(  # pragma: no cover - compiled
+    h: Array, s: NDArray[np.int64], count: NDArray[np.int64], key: float, state: int
+) -> None:
+    """``state`` onto the heap at ``key`` (``count[0]``: the heap's size; room is checked by
+    the walks before each state's successors)."""
+    p = count[0]
+    h[p], s[p] = key, state
+    _sift_up(h, s, p)
+    count[0] = p + 1
 
 
 @jit
@@ -283,8 +290,5 @@ def _walk(  # pragma: no cover - compiled
             h = state_heuristic(b, h_dims, h_f, h_values, headings, h_way, h_risk)
             if h == math.inf:
                 continue  # the 2-D map proves no way on from there
-            p = count[0]
-            heap_h[p], heap_s[p] = h, b
-            _sift_up(heap_h, heap_s, p)
-            count[0] = p + 1
+            _push(heap_h, heap_s, count, h, b)
     return NONE
