@@ -4,11 +4,10 @@ beside Fast Downward lama-first on the same exported PDDL.
 Arenas of 5 m, 10 m and 20 m square with random known clutter (seeded). The robot starts in
 one corner and plans to the far corner; then, ten times, it advances a few steps along its plan
 and a post is sensed on the path ahead (three consistent echoes of a range reading: a lethal
-cell of the world model's sensed layer), and it replans as a mission does: the rest of its plan
-repaired around the change where a local detour will do (``domain/navigation/repair.py``),
-planned whole otherwise ("repaired" counts the first). A second table senses one cell on the
-path 1 m ahead in arenas of 5-40 m and prints the replan time, repaired and from scratch, with
-its log-log slope against the number of lattice states (target: < 0.5). Target: replan p95 <=
+cell of the world model's sensed layer), and it replans as a mission does (the same planner:
+its motion cache and maps kept). A second table senses one cell on the path 1 m ahead in arenas
+of 5-40 m and prints the replan time, by the planner that made the plan and by a fresh one (from
+scratch), with its log-log slope against the number of lattice states (target: < 0.5). Target: replan p95 <=
 20 ms on 10 m x 10 m at the resolution that passes 0.30 m corridors (0.05 m cells, 64
 orientations); bench/README.md holds the targets. ``--load`` keeps the other core busy (a
 spinning child process) for the under-load figure. The one-off costs of a process (the motion
@@ -111,7 +110,6 @@ def run(side: float, library: Library, seed: int = 0, search: str = COST_SEARCH)
         "facts": len(list(problem.init)) if problem is not None else 0,
     }
     replans: list[float] = []
-    repaired = 0
     for _ in range(REPLANS):
         moves = [a for a in plan.actions if a.name == "move"]
         if len(moves) < 8:
@@ -119,21 +117,17 @@ def run(side: float, library: Library, seed: int = 0, search: str = COST_SEARCH)
         pose = moves[2].target  # the robot advanced; something is sensed a few steps ahead
         ahead = moves[7].target
         sense_post(world, ahead[0], ahead[1])
-        remaining = plan.actions[plan.actions.index(moves[2]) + 1 :]
-        previous = Plan(remaining, shape=table.shape)
         t0 = time.perf_counter()
-        out = planner.plan(PlanRequest(pose, table, goal, True, world, previous))
+        out = planner.plan(PlanRequest(pose, table, goal, True, world))
         replans.append((time.perf_counter() - t0) * 1e3)
         if isinstance(out, Failure):
             break
         plan = out
-        repaired += plan.repaired
     return {
         "first": first,
         "p50": pct(replans, 50),
         "p95": pct(replans, 95),
         "n": len(replans),
-        "repaired": repaired,
         "export": export,
     }
 
@@ -141,8 +135,9 @@ def run(side: float, library: Library, seed: int = 0, search: str = COST_SEARCH)
 def scaling(
     side: float, library: Library, seed: int = 0, trials: int = 5, search: str = COST_SEARCH
 ) -> dict[str, Any]:
-    """Replan time after one cell is sensed on the path 1 m ahead of the robot: the repair
-    (what a mission does) and a full plan from scratch, medians over ``trials`` positions."""
+    """Replan time after one cell is sensed on the path 1 m ahead of the robot: by the planner
+    that made the plan (what a mission does: its motion cache and maps kept) and by a fresh
+    one, medians over ``trials`` positions."""
     rng = np.random.default_rng(seed)
     bounds = Bounds(-side / 2, side / 2, -side / 2, side / 2)
     settings = NavigationSettings()
@@ -152,7 +147,7 @@ def scaling(
     pose = (-side / 2 + 1.3, -side / 2 + 0.4, np.pi)
     goal = (LegGoal(0, side / 2 - 0.6, side / 2 - 0.6, 0.1),)
     plan = solved(planner.plan(PlanRequest(pose, table, goal, True, world)))
-    repair, full, repaired = [], [], 0
+    replan, full = [], []
     for trial in range(trials):
         moves = [a for a in plan.actions if a.name == "move"]
         if len(moves) <= 2 + 2 * trial:
@@ -169,22 +164,18 @@ def scaling(
         if ahead is None:
             break
         sense_post(world, ahead[0], ahead[1])  # one sensed cell
-        remaining = plan.actions[plan.actions.index(moves[2 + 2 * trial]) + 1 :]
-        previous = Plan(remaining, shape=table.shape)
         t0 = time.perf_counter()
-        fixed = planner.plan(PlanRequest(here, table, goal, True, world, previous))
-        repair.append((time.perf_counter() - t0) * 1e3)
-        repaired += isinstance(fixed, Plan) and fixed.repaired
+        planner.plan(PlanRequest(here, table, goal, True, world))
+        replan.append((time.perf_counter() - t0) * 1e3)
         fresh = Planner(bounds, settings, search=search, time_limit=60.0)  # nothing kept
         t0 = time.perf_counter()
         fresh.plan(PlanRequest(here, table, goal, True, world))
         full.append((time.perf_counter() - t0) * 1e3)
     return {
         "states": planner.grid.size,
-        "repair": pct(repair, 50),
+        "replan": pct(replan, 50),
         "full": pct(full, 50),
-        "repaired": repaired,
-        "n": len(repair),
+        "n": len(replan),
     }
 
 
@@ -197,23 +188,22 @@ def scaling_table(args: argparse.Namespace) -> None:
     library = load_bundled()
     print(
         "\nreplan after one cell is blocked on the path 1 m ahead (median of the trials): "
-        "repaired plan vs a plan from scratch (ms)"
+        "the planner that made the plan vs a fresh one (ms)"
     )
-    print(f"{'arena':>7}{'states':>12}{'repair':>9}{'repaired':>10}{'scratch':>9}")
+    print(f"{'arena':>7}{'states':>12}{'replan':>9}{'scratch':>9}")
     rows = []
     for side in args.scaling:
         r = scaling(side, library, args.seed, search=SEARCHES[args.search])
         rows.append(r)
         print(
-            f"{side:>5g} m{r['states']:>12,}{r['repair']:>9.1f}{r['repaired']:>6}/{r['n']:<3}"
-            f"{r['full']:>9.1f}",
+            f"{side:>5g} m{r['states']:>12,}{r['replan']:>9.1f}{r['full']:>9.1f}",
             flush=True,
         )
     if len(rows) > 1:
         states = [float(r["states"]) for r in rows]
         print(
-            f"log-log slope against the number of states: repair "
-            f"{slope(states, [r['repair'] for r in rows]):.2f}, from scratch "
+            f"log-log slope against the number of states: replan "
+            f"{slope(states, [r['replan'] for r in rows]):.2f}, from scratch "
             f"{slope(states, [r['full'] for r in rows]):.2f} (target < 0.5)"
         )
 
@@ -307,7 +297,7 @@ def table(args: argparse.Namespace) -> None:
         "UP = unified-planning read + OneshotPlanner('fast-downward') (ms)"
     )
     print(
-        f"{'arena':>7}{'first':>8}{'replan p50':>11}{'p95':>7}{'repaired':>9}"
+        f"{'arena':>7}{'first':>8}{'replan p50':>11}{'p95':>7}"
         f"{'FD driver':>11}{'translate':>10}{'FD search':>17}{'FD via UP':>11}"
         f"{'our len':>8}{'FD len':>7}{'export states/facts':>21}"
     )
@@ -327,7 +317,6 @@ def table(args: argparse.Namespace) -> None:
         partial |= not e["solved"]
         print(
             f"{side:>5g} m{r['first']:>8.0f}{r['p50']:>11.1f}{r['p95']:>7.1f}"
-            f"{r['repaired']:>6}/{r['n']:<2}"
             f"{peer(fd, args.fd_limit):>11}{ms(fd.translate) if fd.status == 'solved' else '-':>10}"
             f"{search:>17}{peer(up, args.up_limit):>11}"
             f"{ours:>8}{fd.length if fd.length is not None else '-':>7}"

@@ -66,8 +66,8 @@ class _SourcePickler(pickle.Pickler):
 
 def source_of(plan: Plan | None, text: str | None = None) -> bytes:
     """What regenerates a plan version's problem: a navigation plan's export (its legs'
-    expanded states, or a repaired plan's graph), or ``text`` as it is (another strategy's
-    problems are a few lines); no plan and no text: an empty problem."""
+    expanded states), or ``text`` as it is (another strategy's problems are a few lines); no
+    plan and no text: an empty problem."""
     buffer = io.BytesIO()
     _SourcePickler(buffer, protocol=pickle.HIGHEST_PROTOCOL).dump(plan if text is None else text)
     return SOURCE_HEADER + zlib.compress(buffer.getvalue(), SOURCE_LEVEL)

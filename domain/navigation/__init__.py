@@ -10,8 +10,7 @@
   expansion budget and an anytime best node, compiled, with pyperplan's searches as a check;
 - **feasibility** (``feasibility``): the one check that proves a goal unreachable, from the
   lethal layer alone;
-- the **planner** (``planner``, ``repair``): ``PlanRequest -> Plan | Failure``, with local
-  repair of the plan being run;
+- the **planner** (``planner``): ``PlanRequest -> Plan | Failure``;
 - the **strategy** (``strategy``): plans and follows a plan through the executor's port;
 - the **recoveries**' motions (``recovery``): back off, spin to sense, change shape.
 """
@@ -27,10 +26,9 @@ from domain.navigation.lattice.motions import (
     primitive_name,
 )
 from domain.navigation.lattice.pddl import lattice_domain, lattice_domain_text, lattice_problem
-from domain.navigation.plan import Failure, Plan, PlanAction, PlanRequest
+from domain.navigation.plan import Failure, Plan, PlanAction, PlanRequest, leg_reach
 from domain.navigation.planner import Planner
 from domain.navigation.recovery import back_off, reshape_duration, reshape_options, spin
-from domain.navigation.repair import leg_reach
 from domain.navigation.search import COST_SEARCH, SEARCH_NAMES
 from domain.navigation.settings import (
     CostSettings,

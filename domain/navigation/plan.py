@@ -14,7 +14,7 @@ from typing import Literal
 from domain.goal_order import LegGoal
 from domain.navigation.lattice.grid import Key
 from domain.navigation.lattice.motions import MotionTable
-from domain.navigation.lattice.pddl import LatticeGraph, lattice_problem
+from domain.navigation.lattice.pddl import lattice_problem
 from domain.navigation.lattice.task import LatticeTask
 from domain.pddl import Problem
 from domain.pyperplan_adapter import CancelFlag
@@ -22,6 +22,11 @@ from domain.world import WorldModel
 
 FailureKind = Literal["unreachable", "timeout", "start_blocked", "no_primitives", "cancelled"]
 Proof = Literal["known", "sensed"]
+
+
+def leg_reach(goal: LegGoal) -> float:
+    """How close the tracked point must come to a goal for the plan to visit it."""
+    return max(0.03, 0.6 * goal.tolerance)
 
 
 @dataclass(frozen=True)
@@ -33,7 +38,6 @@ class PlanRequest:
     goals: tuple[LegGoal, ...]
     ordered: bool
     world: WorldModel
-    previous: Plan | None = None  # the plan being run: a local repair may keep most of it
     cancel: CancelFlag | None = None
 
 
@@ -62,9 +66,7 @@ class Plan:
     expansions: int = 0
     search_ms: float = 0.0
     partial: bool = False
-    repaired: bool = False  # the previous plan made valid again around a local change
     legs: list[LatticeTask] = field(default_factory=list)  # every leg's task (the PDDL export)
-    graph: LatticeGraph | None = None  # the lattice a repaired plan's problem lists
     shape: str = ""
 
     @property
@@ -78,8 +80,6 @@ class Plan:
 
     def problem(self) -> Problem | None:
         """The PDDL problem this plan solves (the lattice its searches generated), if any."""
-        if self.graph is not None:
-            return lattice_problem(self.graph, self.shape)
         return lattice_problem(self.legs, self.shape) if self.legs else None
 
     def release(self) -> None:

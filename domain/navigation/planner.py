@@ -1,9 +1,8 @@
 """Plans tours of goals on the lattice of one body: ``PlanRequest -> Plan | Failure``.
 
-One replan: the costmap's two views read once (``inputs``); where the request carries the plan
-being run and only a local change broke it, a local repair (``repair``); otherwise, per goal,
-the obstacle heuristic's map (an infinite distance at the start proves the goal enclosed),
-unordered goals ordered by those maps, and one cost search per leg. A leg whose search spends
+One replan: the costmap's two views read once (``inputs``); per goal, the obstacle heuristic's
+map (an infinite distance at the start proves the goal enclosed), unordered goals ordered by
+those maps, and one cost search per leg. A leg whose search spends
 its budget ends the plan at its best node (a partial plan: the robot goes there, senses, and
 plans again) if that is closer, else the feasibility check decides between a proof that the
 goal is out of reach and a timeout. ``Failure``s are typed; soft costs never cause one.
@@ -29,15 +28,14 @@ from domain.navigation.lattice.costs import (
     cost_parameters,
     kernel_table,
     quiet_cells,
-    state_costs,
+    start_costs,
     with_start_margins,
 )
 from domain.navigation.lattice.grid import Key, LatticeGrid
 from domain.navigation.lattice.motions import MotionTable, body_key
 from domain.navigation.lattice.states import StatePool
 from domain.navigation.lattice.task import LatticeTask
-from domain.navigation.plan import Failure, Plan, PlanAction, PlanRequest, Proof
-from domain.navigation.repair import Repairer, leg_reach
+from domain.navigation.plan import Failure, Plan, PlanAction, PlanRequest, Proof, leg_reach
 from domain.navigation.search.heuristic import CostHeuristic, cost_map, step_weights, way_of
 from domain.navigation.search.reach import lattice_reaches
 from domain.navigation.settings import NavigationSettings
@@ -73,10 +71,9 @@ class Planner:
         self.states = StatePool()  # search states shared by every search on this grid
         self._caches: dict[tuple[Any, ...], MotionCache] = {}
         self._maps: dict[tuple[Any, ...], Array] = {}
-        # The last start's table: a replan asks for it two or three times (the repair, the
-        # check of the start, the first leg), each a copy of the whole kernel table.
-        self._start: tuple[MotionTable, Key, Array, KernelTable] | None = None
-        self.repairer = Repairer(self)
+        # The last start's table: a replan asks for it for the check of the start and for
+        # the first leg.
+        self._start: tuple[MotionTable, Key, Array, tuple[KernelTable, bool]] | None = None
 
     # -- lattice states ---------------------------------------------------------------------
     def key_of(self, table: MotionTable, pose: Sequence[float]) -> Key:
@@ -123,22 +120,16 @@ class Planner:
         quiet = quiet_cells(risk, blocked, table.cell_reach_new + 1)
         return CostInputs(grid.nx, grid.ny, gf, lethal, geo, risk, blocked, quiet, params)
 
-    def tables(
-        self, table: MotionTable, start: Key | None = None, inputs: CostInputs | None = None
-    ) -> tuple[KernelTable, KernelTable]:
-        """The kernel tables of a leg: its motions at the margin, and out of ``start`` (the
-        robot's state: ``start_table``; ``None`` for a later leg, at the margin)."""
-        kt = kernel_table(table, self.settings.margin)
-        if start is None or inputs is None:
-            return kt, kt
-        return kt, self.start_table(table, start, inputs)
-
-    def start_table(self, table: MotionTable, start: Key, inputs: CostInputs) -> KernelTable:
-        """The motions out of where the robot rests: at ``start_margin``, but near where the
-        resting body already keeps less (it just stopped against something, or sensing
-        rounds a surface it passes closely onto the cells round it), as close as it already
-        is and no closer: a body can always move in a way that brings no part of it nearer
-        to anything than it is, and it must not swing its far end in as deep."""
+    def start_table(
+        self, table: MotionTable, start: Key, inputs: CostInputs
+    ) -> tuple[KernelTable, bool]:
+        """The motions out of where the robot rests (the table of its bin, ``KernelTable.bin``)
+        and whether it rests closer to something than ``start_margin``: at ``start_margin``,
+        but near where the resting body already keeps less (it just stopped against
+        something, or sensing rounds a surface it passes closely onto the cells round it), as
+        close as it already is and no closer: a body can always move in a way that brings no
+        part of it nearer to anything than it is, and it must not swing its far end in as
+        deep."""
         last = self._start
         if last is not None and last[0] is table and last[1] == start and last[2] is inputs.values:
             return last[3]
@@ -146,10 +137,12 @@ class Planner:
         self._start = (table, start, inputs.values, out)
         return out
 
-    def _start_table(self, table: MotionTable, start: Key, inputs: CostInputs) -> KernelTable:
+    def _start_table(
+        self, table: MotionTable, start: Key, inputs: CostInputs
+    ) -> tuple[KernelTable, bool]:
         s = self.settings
-        kt = kernel_table(table, s.start_margin)
         i, j, k = start
+        kt = kernel_table(table, s.start_margin).bin(k)
         r = self.settings.resolution
         body = table.body_checks[k]  # the resting body's cells, as the checks read them
         bi, bj = i + body[:, 0], j + body[:, 1]
@@ -159,7 +152,7 @@ class Planner:
         slack = clear - table.body_check_needs[k]
         close = slack < s.start_margin
         if not close.any():
-            return kt
+            return kt, False
         relaxed = min(s.start_margin, float(np.min(slack)) - s.touch_deeper)
         sites = body[close] * r
 
@@ -172,7 +165,7 @@ class Planner:
 
         shift = np.where(near(table.checks[k] * r), relaxed - s.start_margin, 0.0)
         point_shift = np.where(near(table.grouped[k][:, :2]), relaxed - s.start_margin, 0.0)
-        return with_start_margins(kt, k, shift, point_shift)
+        return with_start_margins(kt, shift, point_shift), True
 
     def cache(self, table: MotionTable, world: WorldModel, inputs: CostInputs) -> MotionCache:
         """The body's motion cache, refreshed to the world model (one per body and margin;
@@ -242,7 +235,8 @@ class Planner:
         cancel: CancelFlag | None,
     ) -> LatticeTask:
         """The task of one leg: from ``start`` to the tracked point on ``goal``."""
-        kt, kt_start = self.tables(table, start if first else None, inputs)
+        kt = kernel_table(table, self.settings.margin)
+        kt_start = self.start_table(table, start, inputs)[0] if first else kt.bin(start[2])
         task = LatticeTask(
             self.grid,
             table,
@@ -261,7 +255,7 @@ class Planner:
 
     def leg_heuristic(self, task: LatticeTask, distances: Array) -> CostHeuristic:
         """A leg's obstacle heuristic with the turn onto the way (``CostHeuristic``)."""
-        grid, table = self.grid, task.table
+        table = task.table
         reach = float(np.linalg.norm(table.offset))
         key = ("way", id(distances))
         way = self._maps.get(key)
@@ -276,8 +270,7 @@ class Planner:
             self.settings.costs.contact_cost,
             self.settings.costs.reverse_penalty,
         )
-        whole = (slice(0, grid.nx), slice(0, grid.ny))
-        return CostHeuristic(task, distances, whole, reach, align=align)
+        return CostHeuristic(task, distances, reach, align=align)
 
     # -- planning -----------------------------------------------------------------------------
     def plan(self, request: PlanRequest) -> Plan | Failure:
@@ -305,13 +298,8 @@ class Planner:
         inputs = self.inputs(world, table, request.pose)
         cache = self.cache(table, world, inputs)
         start = self.key_of(table, request.pose)
-        if request.previous is not None and self.search == searches.COST_SEARCH:
-            fixed = self.repairer.repair(request, inputs, cache, start, deadline)
-            if fixed is not None:
-                return fixed
-        kt_start = self.start_table(table, start, inputs)
-        touching = kt_start is not kernel_table(table, self.settings.start_margin)
-        if state_costs(self.grid.encode(start), inputs, kt_start)[0] == 0:
+        kt_start, touching = self.start_table(table, start, inputs)
+        if start_costs(self.grid.encode(start), inputs, kt_start)[0] == 0:
             return self._blocked(table.shape, 0)
         si, sj, _ = start
         here = self.grid.centre_xy(si, sj)

@@ -21,7 +21,7 @@ from domain.goal_order import LegGoal
 from domain.navigation.feasibility import Feasibility
 from domain.navigation.lattice.grid import LatticeGrid, compose
 from domain.navigation.lattice.motions import HeadView, capsule_samples, motion_table
-from domain.navigation.repair import leg_reach
+from domain.navigation.plan import leg_reach
 from domain.navigation.settings import NavigationSettings, RecoverySettings
 from domain.world import WorldModel
 from primitives.library import Library, Primitive

@@ -87,23 +87,6 @@ class SearchSettings:
     progress: float = 0.25
     """metres closer (by the heuristic) than the start the best node must be to be a partial
     plan worth running"""
-    repair_expansions: int = 300
-    """expansions a local repair's detour may take before the whole way is planned again"""
-    repair_pad: float = 0.8
-    """metres a repair's window reaches beyond the detour's ends and the blocked moves"""
-    repair_window: float = 8.0
-    """metres: a detour needing a larger window is left to a full plan"""
-    repairs_in_a_row: int = 4
-    """local repairs in a row before the whole way is planned again (a repair keeps the far
-    part of a plan made on older knowledge)"""
-    repair_leave_before: int = 3
-    """moves before the first blocked one where a repair's detour leaves the plan"""
-    repair_rejoin_after: int = 2
-    """moves past the last blocked one where a detour may join the plan again ..."""
-    repair_rejoin_span: int = 10
-    """... or at any of this many states after that (the search picks the best)"""
-    repair_on_plan: int = 4
-    """the robot counts as on the plan (repairable) if its state is one of the next this many"""
     start_free: float = 0.15
     """metres round the start centroid the heuristic's map always lets through (the body may
     rest closer to something than its margin: it must still be able to leave)"""
@@ -124,10 +107,6 @@ class SearchSettings:
             raise ValueError("search settings: expansions >= 1 and progress >= 0")
         if self.exported_states < 1 or self.reach_states < 1:
             raise ValueError("search settings: exported_states and reach_states must be >= 1")
-        if self.repair_expansions < 0 or self.repairs_in_a_row < 0:
-            raise ValueError("search settings: repair counts must be >= 0")
-        if not (self.repair_pad > 0 and self.repair_window > 0):
-            raise ValueError("search settings: repair_pad and repair_window must be positive")
 
 
 @dataclass(frozen=True)

@@ -76,7 +76,6 @@ class NavigationStrategy:
         self.index = 0
         self.running: Running | None = None
         self.arrive_tries = 0
-        self.repairs = 0  # plans repaired in a row since the last full plan
         self._checked: tuple[int, int] = (-1, -1)  # (world version, plan index) last checked
         self._lookahead = Lookahead(self.settings.follow.lookahead)
         self._gait: PeriodicGait | None = None  # the last gait move's control (its clock)
@@ -99,19 +98,6 @@ class NavigationStrategy:
         t0 = time.perf_counter()
         old = self.plan.pddl_plan[self.index :] if self.plan else []
         table = self.table_for(s.shape, s.joints)
-        # What remains of a plan on this lattice may need only a local repair: for what the
-        # range sensors found on the way (a contact says the plan ran along something unseen:
-        # it is planned again whole), and after a few in a row, the whole way again.
-        previous = None
-        last = self.plan
-        if (
-            last is not None
-            and not last.partial
-            and table is self.table
-            and isinstance(trigger, PathBlocked)
-            and self.repairs < self.settings.search.repairs_in_a_row
-        ):
-            previous = Plan(last.actions[self.index :], shape=last.shape)
         self.running, self.index, self.arrive_tries = None, 0, 0
         if table is None:
             out: Plan | Failure = Failure(
@@ -124,15 +110,10 @@ class NavigationStrategy:
                 s.goals,
                 s.ordered,
                 s.world,
-                previous,
                 cancel,
             )
             out = self.planner.plan(request)
-        if isinstance(out, Plan):
-            self.repairs = self.repairs + 1 if out.repaired else 0
-            self.plan = out
-        else:
-            self.plan = None
+        self.plan = out if isinstance(out, Plan) else None
         self.table = table
         self._checked = (s.world.version, 0)
         latency = (time.perf_counter() - t0) * 1e3
@@ -158,7 +139,7 @@ class NavigationStrategy:
                 failure=out.kind,
                 proof=out.proof,
             )
-        reason = "partial" if plan.partial else ("repaired" if plan.repaired else "")
+        reason = "partial" if plan.partial else ""
         return Replanned(
             True, reason, record, lattice_domain_text(), export, new, release=plan.release
         )

@@ -153,7 +153,7 @@ def move_slack(
 
 def looked_round(world: WorldModel) -> WorldModel:
     """The world model of a robot that has looked round the whole arena (free beams crossing
-    it everywhere): what a repair meets in a mission, where the robot senses what it passes.
+    it everywhere): what a replan meets in a mission, where the robot senses what it passes.
     In space never observed every detour pays the risk of the unknown and searches wider."""
     b = world.bounds
     for x in np.arange(b.xmin + 0.2, b.xmax, 0.4):

@@ -1,5 +1,5 @@
-"""A cancel ends planning: before the search, in the middle of it (compiled or pyperplan's),
-inside a local repair; the planner answers ``Failure("cancelled")`` and keeps no plan, the
+"""A cancel ends planning: before the search, in the middle of it (compiled or pyperplan's);
+the planner answers ``Failure("cancelled")`` and keeps no plan, the
 strategy reports it and writes no problem; and a grounding of the whole lattice does not hold
 the cancel up in the cycle collector."""
 
@@ -23,11 +23,8 @@ from tests.domain.lattice_scenes import (
     LIB,
     SETTINGS,
     STRAIGHT,
-    ahead,
     legs,
-    looked_round,
     scene,
-    sense_post,
 )
 
 BOUNDS = Bounds(-3.0, 3.0, -3.0, 3.0)
@@ -57,7 +54,7 @@ def long_request(cancel) -> tuple[Planner, PlanRequest]:
     world = WorldModel(bounds, obstacles, SETTINGS.costmap)
     p = Planner(bounds, SETTINGS)
     x, y, psi = (float(v) for v in p.pose_of(STRAIGHT, (*p.grid.cell(-2.0, -2.0), 8)))
-    request = PlanRequest((x, y, psi), STRAIGHT, legs([(2.2, 2.2)]), True, world, None, cancel)
+    request = PlanRequest((x, y, psi), STRAIGHT, legs([(2.2, 2.2)]), True, world, cancel)
     return p, request
 
 
@@ -92,24 +89,6 @@ def test_a_cancel_arriving_mid_search_ends_it(search: str) -> None:
     out = Planner(bounds, SETTINGS, search=search).plan(request)
     assert isinstance(out, Failure) and out.kind == "cancelled"
     assert cancel.looks == 3  # it stopped at the look that saw the cancel
-
-
-def test_a_cancel_stops_a_local_repair_too() -> None:
-    """Something sensed on the plan being run: the repair searches a detour, and stops."""
-    world = looked_round(WorldModel(BOUNDS, [Circle(0.0, 0.8, 0.3)], SETTINGS.costmap))
-    p = Planner(BOUNDS, SETTINGS)
-    goals = legs([(-2.2, 2.0)])
-    first = p.plan(PlanRequest((2.2, -2.0, 3.1), STRAIGHT, goals, True, world))
-    assert isinstance(first, Plan)
-    here = first.actions[0].target
-    sense_post(world, *ahead([a for a in first.actions[1:] if a.name == "move"], here))
-    previous = Plan(first.actions[1:], shape="straight")
-    repaired = p.plan(PlanRequest(here, STRAIGHT, goals, True, world, previous))
-    assert isinstance(repaired, Plan) and repaired.repaired and repaired.expansions > 0
-    flag = threading.Event()
-    flag.set()
-    again = p.plan(PlanRequest(here, STRAIGHT, goals, True, world, previous, flag))
-    assert isinstance(again, Failure) and again.kind == "cancelled"
 
 
 def situation(world: WorldModel) -> Situation:

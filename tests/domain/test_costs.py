@@ -17,6 +17,7 @@ from domain.navigation.lattice.costs import (
     lethal_part,
     quiet_cells,
     risk_part,
+    start_costs,
     state_costs,
 )
 from domain.world import RangeObservation, WorldModel
@@ -138,9 +139,9 @@ def test_the_start_may_rest_closer_than_the_margin_but_not_move_in_deeper() -> N
     inputs = p.inputs(world, STRAIGHT)
     start = p.key_of(STRAIGHT, POSE)
     at_margin, _ = state_costs(p.grid.encode(start), inputs, kernel_table(STRAIGHT, 0.02))
-    out_of_start, c_start = state_costs(
-        p.grid.encode(start), inputs, p.start_table(STRAIGHT, start, inputs)
-    )
+    kt_start, touching = p.start_table(STRAIGHT, start, inputs)
+    out_of_start, c_start = start_costs(p.grid.encode(start), inputs, kt_start)
+    assert touching
     assert not valid(at_margin, HEAD_FIRST) and not valid(out_of_start, HEAD_FIRST)
     assert valid(out_of_start, TAIL_FIRST) and math.isfinite(c_start[TAIL_FIRST])
     assert out_of_start & ~at_margin  # moves away the margin alone would forbid
@@ -181,8 +182,8 @@ def test_the_compiled_cost_evaluation_equals_its_python_form(seed: int) -> None:
             bits = fn(
                 number, inputs.nx, inputs.ny, inputs.values, inputs.geo, kt.open_need,
                 kt.checks, kt.check_needs, kt.check_fails, kt.check_points, kt.grouped,
-                kt.check_segments, kt.deltas, kt.cell_reach, kt.lengths, kt.lead_lengths, inputs.params,
-                base,
+                kt.check_segments, kt.deltas, kt.cell_reach, kt.lengths, kt.lead_lengths,
+                inputs.params, base,
             )  # fmt: skip
             outs.append((int(bits), base))
         assert outs[0][0] == outs[1][0]

@@ -14,7 +14,7 @@ import pytest
 
 from domain.goal_order import LegGoal
 from domain.navigation import Failure, NavigationStrategy, Plan, Planner
-from domain.navigation.lattice.costs import state_costs
+from domain.navigation.lattice.costs import start_costs
 from domain.navigation.plan import FailureKind, Proof
 from domain.navigation.settings import SearchSettings
 from domain.strategy import Situation
@@ -226,7 +226,7 @@ def deepest_out_of_the_start(wall) -> tuple[float, dict[str, float]]:
     pose = (0.0, 0.0, 0.0)
     start = p.key_of(STRAIGHT, pose)
     inputs = p.inputs(world, STRAIGHT)
-    bits, _ = state_costs(p.grid.encode(start), inputs, p.start_table(STRAIGHT, start, inputs))
+    bits, _ = start_costs(p.grid.encode(start), inputs, p.start_table(STRAIGHT, start, inputs)[0])
     i, j, k = start
     centre, seg = p.grid.centre(i, j), STRAIGHT.segments[k]
     out = {}

@@ -65,6 +65,25 @@ class KernelTable:
     cell_segments: NDArray[np.int64]
     open_need: float  # centroid clearance beyond which every point keeps its need + margin
 
+    def bin(self, k: int) -> KernelTable:
+        """The table of bin ``k`` alone, as bin 0 (views: nothing copied). One state's motions
+        read it at its cell's number (``start_costs``): a table with that state's own margins
+        (``with_start_margins``) then copies one bin, not all of them."""
+        one = slice(k, k + 1)
+        return dataclasses.replace(
+            self,
+            checks=self.checks[one],
+            check_needs=self.check_needs[one],
+            check_fails=self.check_fails[one],
+            check_points=self.check_points[one],
+            grouped=self.grouped[one],
+            check_segments=self.check_segments[one],
+            deltas=self.deltas[one],
+            cell_reach=self.cell_reach[one],
+            cells=self.cells[one],
+            cell_segments=self.cell_segments[one],
+        )
+
 
 _TABLES: dict[tuple[int, float], tuple[MotionTable, KernelTable]] = {}
 TABLES_KEPT = 16
@@ -357,6 +376,14 @@ def state_costs(
     return bits, base + risk_costs(number, inputs, kt)
 
 
+def start_costs(
+    number: int, inputs: CostInputs, kt_bin: KernelTable
+) -> tuple[int, NDArray[np.float64]]:
+    """``state_costs`` of state ``number`` by ``kt_bin``, a one-bin table of its own bin
+    (``KernelTable.bin``)."""
+    return state_costs(number % (inputs.nx * inputs.ny), inputs, kt_bin)
+
+
 def quiet_cells(risk: Array, blocked: Array, reach: int) -> NDArray[np.bool_]:
     """Per cell, whether no cell within ``reach`` cells (a box) has any risk: a motion from
     there reads none (a box sum of the cells with some, from one cumulative sum)."""
@@ -373,14 +400,15 @@ def quiet_cells(risk: Array, blocked: Array, reach: int) -> NDArray[np.bool_]:
     return out
 
 
-def with_start_margins(kt: KernelTable, k: int, shift: Array, point_shift: Array) -> KernelTable:
-    """``kt`` with bin ``k``'s margins moved by ``shift`` per cell and ``point_shift`` per
-    grouped point (the start's own allowance: ``Planner.start_table``)."""
-    passes, fails = np.array(kt.check_needs, copy=True), np.array(kt.check_fails, copy=True)
-    grouped = np.array(kt.grouped, copy=True)
-    passes[k, : len(shift)] += shift
-    fails[k, : len(shift)] += shift
-    grouped[k, : len(point_shift), 2] += point_shift
+def with_start_margins(kt_bin: KernelTable, shift: Array, point_shift: Array) -> KernelTable:
+    """A one-bin table (``KernelTable.bin``) with its margins moved by ``shift`` per cell and
+    ``point_shift`` per grouped point (the start's own allowance: ``Planner.start_table``)."""
+    passes = np.array(kt_bin.check_needs, copy=True)
+    fails = np.array(kt_bin.check_fails, copy=True)
+    grouped = np.array(kt_bin.grouped, copy=True)
+    passes[0, : len(shift)] += shift
+    fails[0, : len(shift)] += shift
+    grouped[0, : len(point_shift), 2] += point_shift
     return dataclasses.replace(
-        kt, check_needs=passes, check_fails=fails, grouped=grouped, open_need=math.inf
+        kt_bin, check_needs=passes, check_fails=fails, grouped=grouped, open_need=math.inf
     )

@@ -107,20 +107,16 @@ class LatticeGraph:
         return graph
 
 
-def lattice_problem(
-    legs: LatticeTask | Sequence[LatticeTask] | LatticeGraph, shape: str
-) -> Problem:
-    """The generated part of the lattice as a PDDL problem: one leg's task, every leg of a
-    tour (their lattices merged, one goal point per leg, all to be visited), or a graph put
-    together otherwise (a repaired plan's). ``shape`` is the lattice's body shape.
+def lattice_problem(legs: LatticeTask | Sequence[LatticeTask], shape: str) -> Problem:
+    """The generated part of the lattice as a PDDL problem: one leg's task, or every leg of a
+    tour (their lattices merged, one goal point per leg, all to be visited). ``shape`` is the
+    lattice's body shape.
 
     A tour's goals are a conjunction, so the problem does not state an order: a peer planner
     may visit ordered goals in another order (the plan is still valid on the lattice).
     """
     if isinstance(legs, LatticeTask):
         graph = LatticeGraph.of_legs([legs])
-    elif isinstance(legs, LatticeGraph):
-        graph = legs
     else:
         graph = LatticeGraph.of_legs(list(legs))
     moves = graph.edges

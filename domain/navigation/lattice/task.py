@@ -25,6 +25,7 @@ from domain.navigation.lattice.costs import (
     KernelTable,
     lethal_costs,
     risk_costs,
+    start_costs,
     state_costs,
 )
 from domain.navigation.lattice.grid import Key, LatticeGrid
@@ -67,9 +68,9 @@ class CostOperator(Operator):  # type: ignore[misc]
 
 
 class LatticeTask(Task):  # type: ignore[misc]
-    """One leg: from ``start`` to the head on ``goal`` (x, y within ``reach``)."""
-
-    window: tuple[slice, slice] | None = None  # the cells successors must lie in (all: None)
+    """One leg: from ``start`` to the head on ``goal`` (x, y within ``reach``). ``kt`` is the
+    motions' table at the margin, ``kt_start`` the start's own (``KernelTable.bin`` of its bin:
+    ``Planner.start_table``)."""
 
     def __init__(
         self,
@@ -104,6 +105,7 @@ class LatticeTask(Task):  # type: ignore[misc]
         # ``near`` are filled from them when first read.
         self._pending: list[tuple[NDArray[np.int64], NDArray[np.int64], Any, Any]] = []
         self._size = grid.size
+        self._start_costs: tuple[int, NDArray[np.float64]] | None = None
         # Per bin and motion: the next state's number less the cell's (i * ny + j), as
         # ``encode`` numbers them: (k' * nx + i + di) * ny + j + dj.
         K, d = grid.settings.orientations, table.deltas
@@ -193,17 +195,10 @@ class LatticeTask(Task):  # type: ignore[misc]
             if not (bits >> m) & 1:
                 continue
             b = int(self._targets[k, m]) + cell
-            if b == number or not self._in_window(b):
+            if b == number:
                 continue
             out.append((b, self.table.names[m], float(costs[m])))
         return out
-
-    def _in_window(self, number: int) -> bool:
-        if self.window is None:
-            return True
-        i, j = divmod(number % (self.grid.nx * self.grid.ny), self.grid.ny)
-        wi, wj = self.window
-        return bool(wi.start <= i < wi.stop and wj.start <= j < wj.stop)
 
     # -- states -------------------------------------------------------------------------------
     def fact(self, number: int) -> Fact:
@@ -234,11 +229,17 @@ class LatticeTask(Task):  # type: ignore[misc]
         return near_goal_states(self)
 
     # -- motions ------------------------------------------------------------------------------
+    def start_costs(self) -> tuple[int, NDArray[np.float64]]:
+        """The start's valid motions (bitmask) and their costs, by its own table."""
+        if self._start_costs is None:
+            self._start_costs = start_costs(self.start_number, self.inputs, self.kt_start)
+        return self._start_costs
+
     def valid(self, number: int) -> tuple[int, NDArray[np.float64]]:
         """The valid motions of a state (bitmask) and their costs, read from the cache or
         evaluated (the start with its own margin, never cached)."""
         if number == self.start_number:
-            return state_costs(number, self.inputs, self.kt_start)
+            return self.start_costs()
         cache = self.cache
         if cache is None:
             return state_costs(number, self.inputs, self.kt)
@@ -302,7 +303,7 @@ class LatticeTask(Task):  # type: ignore[misc]
             if not (bits >> m) & 1:
                 continue
             b = int(self._targets[k, m]) + cell
-            if b == number or not self._in_window(b):
+            if b == number:
                 continue
             after = pool.state(b)
             cost = float(costs[m])

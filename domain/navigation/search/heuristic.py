@@ -10,8 +10,7 @@ is the first hard proof that a goal is cut off. Cells within the goal's reach wi
 way to it, and the robot's own round its start, are passable whatever their clearance.
 
 A state's heuristic value is the map at its centroid's cell less how far the centroid may stay
-from the goal with the head on it; a repair's (a detour to any of some target states) adds the
-cheapest turn in place to the nearest target heading.
+from the goal with the head on it, plus the cheapest way to turn onto the map's way.
 """
 
 from __future__ import annotations
@@ -254,49 +253,30 @@ def _dijkstra(  # pragma: no cover - compiled
 
 
 class CostHeuristic(Heuristic):  # type: ignore[misc]
-    """The obstacle heuristic of a leg (or of a repair's detour) for pyperplan's searches and
-    the cost search: ``max(0, map - reach)`` at the state's cell (``reach``: how far the
-    centroid stays from the goal with the head on it), plus ``turn_cost`` times the turn to the
-    nearest of ``headings`` (a repair's targets; none for a leg); 0 once the goal is visited.
+    """The obstacle heuristic of a leg for pyperplan's searches and the cost search:
+    ``max(0, map - reach)`` at the state's cell (``reach``: how far the centroid stays from
+    the goal with the head on it); 0 once the goal is visited.
 
-    With ``align`` (a leg's), the cheapest of leading with the head, a side or the tail along
-    the map's way (its steepest descent): the turn onto it (its length and, where the cell's
-    risk holds, what sweeping the turn's cells blind risks) plus, for a side or the tail, the
+    With ``align``, the cheapest of leading with the head, a side or the tail along the map's
+    way (its steepest descent): the turn onto it (its length and, where the cell's risk
+    holds, what sweeping the turn's cells blind risks) plus, for a side or the tail, the
     reverse penalty over the rest of the way (the motions' ``tail_lead``). Without it a search
     from a body facing away from its goal meets every turn's and every reversed metre's cost
     in g only, after expanding every state it could reach more cheaply.
 
-    ``values`` (and ``way``, ``risk``) cover ``window`` (the whole grid for a leg), flat in row
-    order."""
+    ``values`` (and ``way``, ``risk``) cover the grid, flat in row order."""
 
     def __init__(
         self,
         task: Any,
         values: Array,
-        window: tuple[slice, slice],
         reach: float,
-        headings: Sequence[int] = (),
-        turn_cost: float = 0.0,
         align: tuple[Array, Array, float, float, float, float] | None = None,
     ) -> None:
         self.task, self.reach = task, reach
         self.values = np.ascontiguousarray(values, dtype=np.float64).ravel()
-        self.window = window
-        self.headings = np.array(sorted(headings), dtype=np.int64)
-        self.turn_cost = turn_cost
         grid = task.grid
-        self.dims = np.array(
-            [
-                grid.nx,
-                grid.ny,
-                grid.settings.orientations,
-                window[0].start,
-                window[1].start,
-                window[0].stop,
-                window[1].stop,
-            ],
-            dtype=np.int64,
-        )
+        self.dims = np.array([grid.nx, grid.ny, grid.settings.orientations], dtype=np.int64)
         if align is None:
             self.way, self.risk = np.zeros(0), np.zeros(0)
             turn_length = cells_per_rad = contact = reverse = 0.0
@@ -305,7 +285,7 @@ class CostHeuristic(Heuristic):  # type: ignore[misc]
             self.way = np.ascontiguousarray(way, dtype=np.float64).ravel()
             self.risk = np.ascontiguousarray(risk, dtype=np.float64).ravel()
         self.hf = np.array(
-            [grid.settings.step, reach, turn_cost, turn_length, cells_per_rad, contact, reverse]
+            [grid.settings.step, reach, turn_length, cells_per_rad, contact, reverse]
         )
 
     def __call__(self, node: Any) -> float:
@@ -321,11 +301,7 @@ class CostHeuristic(Heuristic):  # type: ignore[misc]
             if found is None:
                 return math.inf
             number = found
-        return float(
-            state_heuristic(
-                number, self.dims, self.hf, self.values, self.headings, self.way, self.risk
-            )
-        )
+        return float(state_heuristic(number, self.dims, self.hf, self.values, self.way, self.risk))
 
 
 def way_of(distances: Array) -> Array:
@@ -344,33 +320,21 @@ def state_heuristic(  # pragma: no cover - compiled
     dims: NDArray[np.int64],
     hf: Array,
     values: Array,
-    headings: NDArray[np.int64],
     way: Array,
     risk: Array,
 ) -> float:
-    """A (not visited) state's heuristic value. ``dims``: nx, ny, K, the window's i0, j0, i1,
-    j1; ``hf``: turn step, reach, turn cost (to ``headings``), and for the alignment term
-    (``way`` given) the turn's metres per radian, its blind cells per radian, the contact
-    cost and the reverse penalty; ``values``, ``way``, ``risk``: over the window, flat."""
+    """A (not visited) state's heuristic value. ``dims``: nx, ny, K; ``hf``: turn step,
+    reach, and for the alignment term (``way`` given) the turn's metres per radian, its blind
+    cells per radian, the contact cost and the reverse penalty; ``values``, ``way``, ``risk``:
+    over the grid, flat."""
     nx, ny = dims[0], dims[1]
     rest, j = number // ny, number % ny
     k, i = rest // nx, rest % nx
-    wi, wj = i - dims[3], j - dims[4]
-    width = dims[6] - dims[4]
-    if wi < 0 or wj < 0 or i >= dims[5] or j >= dims[6]:
-        return math.inf
-    cell = wi * width + wj
+    cell = i * ny + j
     d = values[cell]
     if not d < math.inf:
         return math.inf
     h = max(0.0, d - hf[1])
-    if headings.shape[0] > 0:
-        dk = math.inf
-        for t in headings:
-            e = abs(_remainder((k - t) * hf[0], 2 * math.pi))
-            if e < dk:
-                dk = e
-        h += hf[2] * dk
     if way.shape[0] > 0 and h > 0.0:
         psi = k * hf[0]
         # e(ψ) points to the tail: the head leads along ψ + π, the tail along ψ, a side along
@@ -379,9 +343,8 @@ def state_heuristic(  # pragma: no cover - compiled
         side = abs(_remainder(psi + 0.5 * math.pi - way[cell], math.pi))
         tail = abs(_remainder(psi - way[cell], 2 * math.pi))
         lead = _turn_cost(head, hf, risk[cell])
-        rest = max(0.0, d - hf[1])
-        lead = min(lead, _turn_cost(side, hf, risk[cell]) + 0.5 * hf[6] * rest)
-        lead = min(lead, _turn_cost(tail, hf, risk[cell]) + hf[6] * rest)
+        lead = min(lead, _turn_cost(side, hf, risk[cell]) + 0.5 * hf[5] * h)
+        lead = min(lead, _turn_cost(tail, hf, risk[cell]) + hf[5] * h)
         h += lead
     return float(h)
 
@@ -390,7 +353,7 @@ def state_heuristic(  # pragma: no cover - compiled
 def _turn_cost(turn: float, hf: Array, risk: float) -> float:  # pragma: no cover - compiled
     """What turning ``turn`` radians in place costs at least: its length and the contacts its
     blind sweep risks (``hf``: see ``state_heuristic``)."""
-    return float(hf[3] * turn + hf[5] * (1.0 - math.exp(hf[4] * turn * risk)))
+    return float(hf[2] * turn + hf[4] * (1.0 - math.exp(hf[3] * turn * risk)))
 
 
 @jit

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 from pyperplan.task import Operator
 
 from domain.kernels import jit
-from domain.navigation.lattice.costs import lethal_part, risk_part, state_costs
+from domain.navigation.lattice.costs import lethal_part, risk_part
 from domain.navigation.lattice.store import MAX_LOAD, Store, put, slot
 from domain.navigation.lattice.task import CostOperator, LatticeTask, state_name
 from domain.navigation.search.heuristic import CostHeuristic, state_heuristic
@@ -134,10 +134,8 @@ def search(task: LatticeTask, heuristic: CostHeuristic, weight: float, budget: i
     grid, table = task.grid, task.table
     kt, inputs = task.kt, task.inputs
     start = task.start_number
-    start_bits, start_costs = state_costs(start, inputs, task.kt_start)
-    window = task.window or (slice(0, grid.nx), slice(0, grid.ny))
-    (wi, wj), K = window, grid.settings.orientations
-    dims = np.array([grid.nx, grid.ny, K, wi.start, wj.start, wi.stop, wj.stop], dtype=np.int64)
+    start_bits, start_costs = task.start_costs()
+    dims = np.array([grid.nx, grid.ny, grid.settings.orientations], dtype=np.int64)
     cache = task.cache
     if cache is None:
         raise ValueError("the compiled search needs the task's motion cache")
@@ -155,9 +153,9 @@ def search(task: LatticeTask, heuristic: CostHeuristic, weight: float, budget: i
                 inputs.values, inputs.geo, inputs.risk, inputs.blocked, inputs.quiet,
                 kt.open_need, inputs.params, kt.checks, kt.check_needs, kt.check_fails,
                 kt.check_points, kt.grouped, kt.check_segments, kt.deltas, kt.cell_reach,
-                kt.lengths, kt.lead_lengths, kt.cells, kt.cell_segments, task.motion_targets,
-                heuristic.dims, heuristic.hf, heuristic.values, heuristic.headings,
-                heuristic.way, heuristic.risk,
+                kt.lengths, kt.lead_lengths, kt.cells,
+                kt.cell_segments, task.motion_targets,
+                heuristic.dims, heuristic.hf, heuristic.values, heuristic.way, heuristic.risk,
                 lethal.index.keys, lethal.index.values, lethal.index.size, lethal.ints,
                 lethal.floats, lethal.used, risky.index.keys, risky.index.values,
                 risky.index.size, risky.floats, risky.used,
@@ -249,9 +247,9 @@ def _run(  # pragma: no cover - compiled
     risk: Array, blocked: Array, quiet: Array, open_need: float, params: Array,
     checks: Array, check_needs: Array, check_fails: Array, check_points: Array,
     grouped: Array, check_segments: Array, deltas: Array, cell_reach: Array,
-    lengths: Array, lead_lengths: Array, cells: Array, cell_segments: Array, targets: Array,
-    h_dims: NDArray[np.int64], h_f: Array, h_values: Array, headings: NDArray[np.int64],
-    h_way: Array, h_risk: Array,
+    lengths: Array, lead_lengths: Array, cells: Array,
+    cell_segments: Array, targets: Array,
+    h_dims: NDArray[np.int64], h_f: Array, h_values: Array, h_way: Array, h_risk: Array,
     lk: Array, lv: Array, ls: Array, lethal_bits: Array, lethal_base: Array, lethal_used: Array,
     rk: Array, rv: Array, rs: Array, risk_extra: Array, risk_used: Array,
     bk: Array, bv: Array, bs: Array,
@@ -269,7 +267,7 @@ def _run(  # pragma: no cover - compiled
     base = np.empty(n_motions)
     extra = np.empty(n_motions)
     if count[NODES] == 0:
-        h = state_heuristic(start, h_dims, h_f, h_values, headings, h_way, h_risk)
+        h = state_heuristic(start, h_dims, h_f, h_values, h_way, h_risk)
         node_state[0], node_parent[0], node_g[0], node_op[0], node_h[0] = start, -1, 0.0, -2, h
         count[BEST] = -1
         put(bk, bv, bs, start, 0)
@@ -368,14 +366,10 @@ def _run(  # pragma: no cover - compiled
             b = targets[k, m] + cell
             if b == state:
                 continue
-            bc = b % plane
-            bi, bj = bc // ny, bc % ny
-            if not (dims[3] <= bi < dims[5] and dims[4] <= bj < dims[6]):
-                continue  # outside the repair's window
             at = slot(bk, b)
             if bk[at] == b and bv[at] < 0:
                 continue  # no reopening
-            h = state_heuristic(b, h_dims, h_f, h_values, headings, h_way, h_risk)
+            h = state_heuristic(b, h_dims, h_f, h_values, h_way, h_risk)
             if h == math.inf:
                 continue  # no way to the goal from there
             g_child = g + here_costs[m]

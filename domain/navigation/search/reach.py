@@ -7,8 +7,8 @@ lattice itself: a greedy best-first walk (by the cost heuristic) over the states
 motion joins, validity alone (no costs, so no cost keeps it from a way), each state once. It
 finds a way quickly when there is one, and when the reachable states run out without the head
 on the goal, no plan on this lattice and this lethal layer exists: a proof the cost search's
-budget could not give. It reads the same validity (``costs.lethal_part``) and the same window
-as the search, and stops at the task's deadline, a cancel, or ``states`` states.
+budget could not give. It reads the same validity (``costs.lethal_part``) as the search, and
+stops at the task's deadline, a cancel, or ``states`` states.
 
 When the start's side is larger than the budget (an open arena round a closed room), the walk
 goes the other way too: from every state with the head on the goal, over the motions that
@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from domain.kernels import jit
-from domain.navigation.lattice.costs import lethal_part, motion_slack, state_costs
+from domain.navigation.lattice.costs import lethal_part, motion_slack
 from domain.navigation.lattice.task import LatticeTask
 from domain.navigation.search.heuristic import CostHeuristic, state_heuristic
 from domain.pyperplan_adapter import stop_if_due
@@ -49,11 +49,8 @@ def lattice_reaches(task: LatticeTask, heuristic: CostHeuristic, states: int) ->
     """Whether some sequence of valid motions from the task's start puts the head on its goal
     (``Reach``). Raises ``SearchStopped`` for a cancel or the deadline."""
     grid, table, kt, inputs = task.grid, task.table, task.kt, task.inputs
-    window = task.window or (slice(0, grid.nx), slice(0, grid.ny))
-    wi, wj = window
-    K = grid.settings.orientations
-    dims = np.array([grid.nx, grid.ny, K, wi.start, wj.start, wi.stop, wj.stop], dtype=np.int64)
-    start_bits, _ = state_costs(task.start_number, inputs, task.kt_start)
+    dims = np.array([grid.nx, grid.ny, grid.settings.orientations], dtype=np.int64)
+    start_bits, _ = task.start_costs()
     seen = np.zeros(grid.size, dtype=np.bool_)
     capacity = 1 << 14
     heap_h, heap_s = np.empty(capacity), np.empty(capacity, dtype=np.int64)
@@ -65,8 +62,9 @@ def lattice_reaches(task: LatticeTask, heuristic: CostHeuristic, states: int) ->
             CHUNK, states, task.start_number, start_bits, near, dims, inputs.values,
             inputs.geo, kt.open_need, inputs.params, kt.checks, kt.check_needs,
             kt.check_fails, kt.check_points, kt.grouped, kt.check_segments, kt.deltas,
-            kt.cell_reach, kt.lengths, kt.lead_lengths, task.motion_targets, heuristic.dims, heuristic.hf,
-            heuristic.values, heuristic.headings, heuristic.way, heuristic.risk, seen,
+            kt.cell_reach, kt.lengths, kt.lead_lengths,
+            task.motion_targets, heuristic.dims, heuristic.hf,
+            heuristic.values, heuristic.way, heuristic.risk, seen,
             heap_h, heap_s, count,
         )  # fmt: skip
         if status == REACHED:
@@ -104,7 +102,7 @@ def _reaches_back(
     ``states``."""
     grid, kt, inputs = task.grid, task.kt, task.inputs
     K = grid.settings.orientations
-    start_bits, _ = state_costs(task.start_number, inputs, task.kt_start)
+    start_bits, _ = task.start_costs()
     bins, motions, counts = predecessors(np.asarray(kt.deltas, dtype=np.int64), K)
     seen = np.zeros(grid.size, dtype=np.bool_)
     capacity = max(1 << 14, 2 * near.size)
@@ -149,7 +147,7 @@ def _walk_back(  # pragma: no cover - compiled
             n = near[q]
             bc = n % plane
             bi, bj = bc // ny, bc % ny
-            if seen[n] or not (dims[3] <= bi < dims[5] and dims[4] <= bj < dims[6]):
+            if seen[n]:
                 continue
             if n == start:
                 return REACHED
@@ -170,7 +168,7 @@ def _walk_back(  # pragma: no cover - compiled
         for q in range(counts[b]):
             k, m = bins[b, q], motions[b, q]
             i, j = ti - deltas[k, m, 0], tj - deltas[k, m, 1]
-            if not (dims[3] <= i < dims[5] and dims[4] <= j < dims[6]):
+            if not (0 <= i < nx and 0 <= j < ny):
                 continue
             source = k * plane + i * ny + j
             if seen[source]:
@@ -241,7 +239,7 @@ def _walk(  # pragma: no cover - compiled
     checks: Array, check_needs: Array, check_fails: Array, check_points: Array,
     grouped: Array, check_segments: Array, deltas: Array, cell_reach: Array, lengths: Array,
     lead_lengths: Array, targets: Array, h_dims: NDArray[np.int64], h_f: Array, h_values: Array,
-    headings: NDArray[np.int64], h_way: Array, h_risk: Array, seen: NDArray[np.bool_],
+    h_way: Array, h_risk: Array, seen: NDArray[np.bool_],
     heap_h: Array, heap_s: NDArray[np.int64], count: NDArray[np.int64],
 ) -> int:  # fmt: skip
     """Up to ``chunk`` states of the walk (see the module's docstring); what it ended with."""
@@ -272,8 +270,8 @@ def _walk(  # pragma: no cover - compiled
         else:
             bits = lethal_part(
                 state, nx, ny, values, geo, open_need, checks, check_needs, check_fails,
-                check_points, grouped, check_segments, deltas, cell_reach, lengths, lead_lengths, params,
-                base,
+                check_points, grouped, check_segments, deltas, cell_reach, lengths, lead_lengths,
+                params, base,
             )  # fmt: skip
         k, cell = state // plane, state % plane
         for m in range(n_motions):
@@ -282,12 +280,8 @@ def _walk(  # pragma: no cover - compiled
             b = targets[k, m] + cell
             if b == state or seen[b]:
                 continue
-            bc = b % plane
-            bi, bj = bc // ny, bc % ny
-            if not (dims[3] <= bi < dims[5] and dims[4] <= bj < dims[6]):
-                continue
             seen[b] = True
-            h = state_heuristic(b, h_dims, h_f, h_values, headings, h_way, h_risk)
+            h = state_heuristic(b, h_dims, h_f, h_values, h_way, h_risk)
             if h == math.inf:
                 continue  # the 2-D map proves no way on from there
             _push(heap_h, heap_s, count, h, b)
