@@ -79,7 +79,7 @@ class CostSettings:
 class SearchSettings:
     """The one search: weighted A* over the lattice with one expansion budget."""
 
-    weight: float = 1.5
+    weight: float = 2.0
     """f = g + weight * h: above 1 trades optimality for fewer expansions"""
     expansions: int = 50_000
     """expansions per leg before the search returns its best node (a budget, not seconds: the

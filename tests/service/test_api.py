@@ -432,8 +432,9 @@ def test_goal_walled_in_by_hidden_obstacles_ends_failed_with_the_reason(client: 
     # Never into the ring: it looks, clears what it sensed once, looks again, and gives up on
     # what the lethal layer proves (or, where a sensed ring keeps gaps a cell wide, on a
     # search that finds no way within its budget, or within its wall-clock limit on a busy
-    # machine): never on a claim the facts do not hold.
-    assert m["status"] == "failed" and m["collisions"] == 0
+    # machine): never on a claim the facts do not hold. What it cleared it may find again by
+    # touch, once at most (hidden obstacles: at most one contact each, bench/README.md).
+    assert m["status"] == "failed" and m["collisions"] <= 1
     proved = m["reason"].startswith("unreachable:") and "goal 0 at (3, 3)" in m["reason"]
     assert proved or m["reason"].startswith("planning timeout: no plan"), m["reason"]
 
