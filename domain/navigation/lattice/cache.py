@@ -32,8 +32,9 @@ class Rows:
 
     def __init__(self, width: int, limit: int = ROWS_LIMIT) -> None:
         self.index = Store(2 * FIRST_ROWS)
-        self.ints = np.zeros(FIRST_ROWS, dtype=np.int64)
-        self.floats = np.zeros((FIRST_ROWS, max(1, width)))
+        # (rows are written whole before they are read: ``used`` counts those handed out)
+        self.ints = np.empty(FIRST_ROWS, dtype=np.int64)
+        self.floats = np.empty((FIRST_ROWS, max(1, width)))
         self.used = np.zeros(1, dtype=np.int64)  # rows handed out
         self.limit = limit
 
@@ -51,8 +52,8 @@ class Rows:
         self.index.room(more)
         while int(self.used[0]) + more > len(self.ints):
             grow = len(self.ints)
-            self.ints = np.concatenate([self.ints, np.zeros(grow, dtype=np.int64)])
-            self.floats = np.concatenate([self.floats, np.zeros((grow, self.floats.shape[1]))])
+            self.ints = np.concatenate([self.ints, np.empty(grow, dtype=np.int64)])
+            self.floats = np.concatenate([self.floats, np.empty((grow, self.floats.shape[1]))])
 
     def forget(self, changed: NDArray[np.bool_], grid: LatticeGrid, reach: float) -> None:
         """Drop the states within ``reach`` metres of a changed cell (``changed``: the grid)."""

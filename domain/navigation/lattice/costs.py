@@ -34,6 +34,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy import ndimage
 
 from domain.kernels import jit
 from domain.navigation.lattice.motions import MotionTable
@@ -386,17 +387,10 @@ def start_costs(
 
 def quiet_cells(risk: Array, blocked: Array, reach: int) -> NDArray[np.bool_]:
     """Per cell, whether no cell within ``reach`` cells (a box) has any risk: a motion from
-    there reads none (a box sum of the cells with some, from one cumulative sum)."""
-    some = ((risk != 0.0) | (blocked != 0.0)).astype(np.int64)
-    nx, ny = some.shape
-    total = np.zeros((nx + 1, ny + 1), dtype=np.int64)
-    total[1:, 1:] = some.cumsum(axis=0).cumsum(axis=1)
-    i0 = np.clip(np.arange(nx) - reach, 0, nx)
-    i1 = np.clip(np.arange(nx) + reach + 1, 0, nx)
-    j0 = np.clip(np.arange(ny) - reach, 0, ny)
-    j1 = np.clip(np.arange(ny) + reach + 1, 0, ny)
-    box = total[i1][:, j1] - total[i0][:, j1] - total[i1][:, j0] + total[i0][:, j0]
-    out: NDArray[np.bool_] = box == 0
+    there reads none (a maximum filter of the cells with some, separable)."""
+    some = (risk != 0.0) | (blocked != 0.0)
+    box = ndimage.maximum_filter(some, size=2 * reach + 1, mode="constant", cval=False)
+    out: NDArray[np.bool_] = ~box
     return out
 
 
