@@ -27,10 +27,12 @@ from app.store.models import MissionRow
 router = APIRouter(tags=["websocket"])
 T = TypeVar("T")
 MAX_CLIENT_MESSAGE = 4096  # bytes: clients only ever send small control messages
+CLOSE_WAIT = 5.0  # seconds the handler lets the reader's own close frame go out before it ends
 
 
-async def _receive(ws: WebSocket, closed: asyncio.Event) -> None:
-    """Read what the client sends (ping, malformed, oversized) until it disconnects."""
+async def _receive(ws: WebSocket, closed: asyncio.Event, closing: asyncio.Event) -> None:
+    """Read what the client sends (ping, malformed, oversized) until it disconnects; an
+    oversized message closes the socket (1009), ``closing`` set while that close goes out."""
     try:
         while True:
             message = await ws.receive()
@@ -38,6 +40,7 @@ async def _receive(ws: WebSocket, closed: asyncio.Event) -> None:
                 break
             data = message.get("text") or (message.get("bytes") or b"").decode("utf-8", "replace")
             if len(data) > MAX_CLIENT_MESSAGE:
+                closing.set()
                 await ws.close(code=1009, reason="message too big")
                 break
             try:
@@ -98,8 +101,8 @@ async def _unless_closed(closed: asyncio.Event, work: Awaitable[T]) -> tuple[boo
 async def mission_socket(ws: WebSocket, mission_id: str) -> None:
     svc: Services = ws.app.state.services
     await ws.accept()
-    closed = asyncio.Event()
-    reader = asyncio.create_task(_receive(ws, closed))
+    closed, closing = asyncio.Event(), asyncio.Event()
+    reader = asyncio.create_task(_receive(ws, closed, closing))
     channel = None
     try:
         # The store is read in a thread (a few at once: ``ws_snapshot_threads``): a burst of
@@ -142,6 +145,12 @@ async def mission_socket(ws: WebSocket, mission_id: str) -> None:
         if channel is not None:
             svc.metrics.frames_dropped.inc(channel.dropped)
             svc.hub.unsubscribe(mission_id, channel)
+        if closing.is_set() and not reader.done():
+            # The reader is sending its close: a frame sent meanwhile found the socket closing
+            # and ended this loop. Cancelling the reader now could drop the close frame, and
+            # the client would wait for it forever.
+            with contextlib.suppress(Exception):
+                await asyncio.wait_for(asyncio.shield(reader), CLOSE_WAIT)
         reader.cancel()
         if (
             ws.application_state == WebSocketState.CONNECTED
