@@ -179,6 +179,12 @@ def lethal_at(  # pragma: no cover - compiled
 
 
 @jit
+def cell_centre(geo: Array, i: int, j: int) -> tuple[float, float]:  # pragma: no cover - compiled
+    """The centre of cell ``(i, j)`` (``geo``: ox, oy, resolution, ...)."""
+    return geo[0] + (i + 0.5) * geo[2], geo[1] + (j + 0.5) * geo[2]
+
+
+@jit
 def motion_slack(  # pragma: no cover - compiled
     k: int,
     m: int,
@@ -257,8 +263,7 @@ def lethal_part(  # pragma: no cover - compiled
     plane = nx * ny
     k, cell = number // plane, number % plane
     i, j = cell // ny, cell % ny
-    cx = geo[0] + (i + 0.5) * geo[2]
-    cy = geo[1] + (j + 0.5) * geo[2]
+    cx, cy = cell_centre(geo, i, j)
     n_motions = check_segments.shape[1] - 1
     radius, decay, penalty, reverse = params[0], params[1], params[2], params[5]
     open_space = values[i, j] >= open_need + radius

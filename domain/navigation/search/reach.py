@@ -26,7 +26,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from domain.kernels import jit
-from domain.navigation.lattice.costs import lethal_part, motion_slack
+from domain.navigation.lattice.costs import cell_centre, lethal_part, motion_slack
 from domain.navigation.lattice.task import LatticeTask
 from domain.navigation.search.heuristic import CostHeuristic, state_heuristic
 from domain.pyperplan_adapter import stop_if_due
@@ -157,10 +157,8 @@ def _walk_back(  # pragma: no cover - compiled
     while count[0] > 0:
         if done >= chunk or count[0] + counts.max() + 1 > heap_h.shape[0]:
             return RUNNING
-        state = _pop(heap_h, heap_s, count[0])
-        count[0] -= 1
+        state = _take(heap_h, heap_s, count)
         done += 1
-        count[1] += 1
         if count[1] > limit:
             return OVER
         b, cell = state // plane, state % plane
@@ -177,7 +175,7 @@ def _walk_back(  # pragma: no cover - compiled
                 if (start_bits >> m) & 1:
                     return REACHED
                 continue
-            cx, cy = geo[0] + (i + 0.5) * geo[2], geo[1] + (j + 0.5) * geo[2]
+            cx, cy = cell_centre(geo, i, j)
             slack = motion_slack(
                 k, m, i, j, cx, cy, nx, ny, values, geo, checks, check_needs, check_fails,
                 check_points, grouped, check_segments,
@@ -199,6 +197,18 @@ def _push(  # pragma: no cover - compiled
     h[p], s[p] = key, state
     _sift_up(h, s, p)
     count[0] = p + 1
+
+
+@jit
+def _take(  # pragma: no cover - compiled
+    h: Array, s: NDArray[np.int64], count: NDArray[np.int64]
+) -> int:
+    """The heap's least state, taken off it and counted as met (``count``: heap size, states
+    met)."""
+    state = _pop(h, s, count[0])
+    count[0] -= 1
+    count[1] += 1
+    return int(state)
 
 
 @jit
@@ -256,10 +266,8 @@ def _walk(  # pragma: no cover - compiled
     while count[0] > 0:
         if done >= chunk or count[0] + n_motions + 1 > heap_h.shape[0]:
             return RUNNING
-        state = _pop(heap_h, heap_s, count[0])
-        count[0] -= 1
+        state = _take(heap_h, heap_s, count)
         done += 1
-        count[1] += 1
         if count[1] > limit:
             return OVER
         at = np.searchsorted(near, state)
