@@ -92,8 +92,8 @@ class SearchSettings:
     rest closer to something than its margin: it must still be able to leave)"""
     reach_states: int = 1_000_000
     """states the lattice's own connectivity check (``search.reach``) may walk from each side
-    (the start's, then the goal's) when the budget ran out, before "no plan within the budget"
-    is all that can be said"""
+    (the start's and the goal's, in turns) when the budget ran out, before "no plan within the
+    budget" is all that can be said"""
     exported_states: int = 1000
     """states of each leg's search its PDDL problem lists: the first expanded (A*'s order:
     round the start and along the way) and every state of the plan; bounds what each plan

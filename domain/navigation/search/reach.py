@@ -10,11 +10,12 @@ on the goal, no plan on this lattice and this lethal layer exists: a proof the c
 budget could not give. It reads the same validity (``costs.lethal_part``) as the search, and
 stops at the task's deadline, a cancel, or ``states`` states.
 
-When the start's side is larger than the budget (an open arena round a closed room), the walk
-goes the other way too: from every state with the head on the goal, over the motions that
-lead into them (each predecessor's motion checked as the forward walk checks it,
-``costs.motion_slack``). The states that can reach the goal running out without the start
-among them is the same proof, from the side that is small when a goal is enclosed.
+A second walk goes the other way, in turns with the first: from every state with the head on
+the goal, over the motions that lead into them (each predecessor's motion checked as the
+forward walk checks it, ``costs.motion_slack``). The states that can reach the goal running
+out without the start among them is the same proof, from the side that is small when a goal
+is enclosed (an open arena round a closed room), so the proof costs what the smaller side
+has, not what the open one has.
 """
 
 from __future__ import annotations
@@ -47,35 +48,99 @@ class Reach(NamedTuple):
 
 def lattice_reaches(task: LatticeTask, heuristic: CostHeuristic, states: int) -> Reach:
     """Whether some sequence of valid motions from the task's start puts the head on its goal
-    (``Reach``). Raises ``SearchStopped`` for a cancel or the deadline."""
-    grid, table, kt, inputs = task.grid, task.table, task.kt, task.inputs
-    dims = np.array([grid.nx, grid.ny, grid.settings.orientations], dtype=np.int64)
-    start_bits, _ = task.start_costs()
-    seen = np.zeros(grid.size, dtype=np.bool_)
-    capacity = 1 << 14
-    heap_h, heap_s = np.empty(capacity), np.empty(capacity, dtype=np.int64)
-    count = np.zeros(3, dtype=np.int64)  # heap size, states met, started
-    near = task.near_states()
+    (``Reach``). Raises ``SearchStopped`` for a cancel or the deadline.
+
+    The two walks take turns, a chunk each: whichever side runs out first is the proof, so an
+    enclosed goal costs about twice its own few states, not the open side's."""
+    forward = _Forward(task, heuristic, states)
+    back: _Back | None = None
     while True:
         stop_if_due(task.cancel, task.deadline)
-        status = _walk(
-            CHUNK, states, task.start_number, start_bits, near, dims, inputs.values,
-            inputs.geo, kt.open_need, inputs.params, kt.checks, kt.check_needs,
+        status = forward.step() if forward.status == RUNNING else forward.status
+        if status in (REACHED, NONE):
+            return Reach(status == REACHED, "start", forward.met)
+        if back is None:
+            back = _Back(task, states)
+        stop_if_due(task.cancel, task.deadline)
+        if back.status == RUNNING:
+            back.step()
+        if back.status in (REACHED, NONE):
+            return Reach(back.status == REACHED, "goal", forward.met)
+        if forward.status == OVER and back.status == OVER:
+            return Reach(None, "goal", forward.met)
+
+
+class _Forward:
+    """The walk from the start's side, resumable a chunk at a time."""
+
+    def __init__(self, task: LatticeTask, heuristic: CostHeuristic, states: int) -> None:
+        grid = task.grid
+        self.task, self.heuristic, self.states = task, heuristic, states
+        self.dims = np.array([grid.nx, grid.ny, grid.settings.orientations], dtype=np.int64)
+        self.start_bits = task.start_costs()[0]
+        self.seen = np.zeros(grid.size, dtype=np.bool_)
+        self.heap_h, self.heap_s = np.empty(1 << 14), np.empty(1 << 14, dtype=np.int64)
+        self.count = np.zeros(3, dtype=np.int64)  # heap size, states met, started
+        self.near = task.near_states()
+        self.status = RUNNING
+
+    @property
+    def met(self) -> int:
+        return int(self.count[1])
+
+    def step(self) -> int:
+        task, kt, inputs, h = self.task, self.task.kt, self.task.inputs, self.heuristic
+        self.status = _walk(
+            CHUNK, self.states, task.start_number, self.start_bits, self.near, self.dims,
+            inputs.values, inputs.geo, kt.open_need, inputs.params, kt.checks, kt.check_needs,
             kt.check_fails, kt.check_points, kt.grouped, kt.check_segments, kt.deltas,
-            kt.cell_reach, kt.lengths, kt.lead_lengths,
-            task.motion_targets, heuristic.dims, heuristic.hf,
-            heuristic.values, heuristic.way, heuristic.risk, seen,
-            heap_h, heap_s, count,
+            kt.cell_reach, kt.lengths, kt.lead_lengths, task.motion_targets, h.dims, h.hf,
+            h.values, h.way, h.risk, self.seen, self.heap_h, self.heap_s, self.count,
         )  # fmt: skip
-        if status == REACHED:
-            return Reach(True, "start", int(count[1]))
-        if status == NONE:
-            return Reach(False, "start", int(count[1]))
-        if status == OVER:
-            return Reach(_reaches_back(task, states, near, dims), "goal", int(count[1]))
-        if int(count[0]) + len(table.motions) + 1 > len(heap_h):
-            heap_h = np.concatenate([heap_h, np.empty(len(heap_h))])
-            heap_s = np.concatenate([heap_s, np.empty(len(heap_s), dtype=np.int64)])
+        if int(self.count[0]) + len(task.table.motions) + 1 > len(self.heap_h):
+            self.heap_h, self.heap_s = _grown(self.heap_h, self.heap_s)
+        return self.status
+
+
+class _Back:
+    """The walk from the goal's side (see the module's docstring), resumable a chunk at a
+    time: ``REACHED`` when the start can reach the goal, ``NONE`` when the states that can
+    run out without it, ``OVER`` past ``states``."""
+
+    def __init__(self, task: LatticeTask, states: int) -> None:
+        grid, kt = task.grid, task.kt
+        self.task, self.states = task, states
+        self.dims = np.array([grid.nx, grid.ny, grid.settings.orientations], dtype=np.int64)
+        self.start_bits = task.start_costs()[0]
+        self.near = task.near_states()
+        self.preds = predecessors(np.asarray(kt.deltas, dtype=np.int64), grid.settings.orientations)
+        self.seen = np.zeros(grid.size, dtype=np.bool_)
+        capacity = max(1 << 14, 2 * self.near.size)
+        self.heap_h, self.heap_s = np.empty(capacity), np.empty(capacity, dtype=np.int64)
+        self.count = np.zeros(3, dtype=np.int64)
+        self.status = RUNNING
+
+    def step(self) -> int:
+        task, kt, inputs = self.task, self.task.kt, self.task.inputs
+        bins, motions, counts = self.preds
+        si, sj, _k = task.start_key
+        self.status = _walk_back(
+            CHUNK, self.states, task.start_number, self.start_bits, self.near, self.dims,
+            inputs.values, inputs.geo, kt.checks, kt.check_needs, kt.check_fails,
+            kt.check_points, kt.grouped, kt.check_segments, kt.deltas, bins, motions, counts,
+            si, sj, self.seen, self.heap_h, self.heap_s, self.count,
+        )  # fmt: skip
+        if int(self.count[0]) + int(counts.max()) + 1 > len(self.heap_h):
+            self.heap_h, self.heap_s = _grown(self.heap_h, self.heap_s)
+        return self.status
+
+
+def _grown(heap_h: Array, heap_s: NDArray[np.int64]) -> tuple[Array, NDArray[np.int64]]:
+    """A walk's heap with twice the room (its entries kept)."""
+    return (
+        np.concatenate([heap_h, np.empty(len(heap_h))]),
+        np.concatenate([heap_s, np.empty(len(heap_s), dtype=np.int64)]),
+    )
 
 
 def predecessors(deltas: NDArray[np.int64], K: int) -> tuple[NDArray[np.int64], ...]:
@@ -89,43 +154,6 @@ def predecessors(deltas: NDArray[np.int64], K: int) -> tuple[NDArray[np.int64], 
         k, m = np.nonzero(ends == b)
         bins[b, : k.size], motions[b, : m.size] = k, m
     return bins, motions, counts
-
-
-def _reaches_back(
-    task: LatticeTask,
-    states: int,
-    near: NDArray[np.int64],
-    dims: NDArray[np.int64],
-) -> bool | None:
-    """The walk from the goal's side (see the module's docstring): ``True`` when the start can
-    reach it, ``False`` when the states that can run out without it, ``None`` past
-    ``states``."""
-    grid, kt, inputs = task.grid, task.kt, task.inputs
-    K = grid.settings.orientations
-    start_bits, _ = task.start_costs()
-    bins, motions, counts = predecessors(np.asarray(kt.deltas, dtype=np.int64), K)
-    seen = np.zeros(grid.size, dtype=np.bool_)
-    capacity = max(1 << 14, 2 * near.size)
-    heap_h, heap_s = np.empty(capacity), np.empty(capacity, dtype=np.int64)
-    count = np.zeros(3, dtype=np.int64)
-    si, sj, _k = task.start_key
-    while True:
-        stop_if_due(task.cancel, task.deadline)
-        status = _walk_back(
-            CHUNK, states, task.start_number, start_bits, near, dims, inputs.values,
-            inputs.geo, kt.checks, kt.check_needs, kt.check_fails, kt.check_points,
-            kt.grouped, kt.check_segments, kt.deltas, bins, motions, counts, si, sj, seen,
-            heap_h, heap_s, count,
-        )  # fmt: skip
-        if status == REACHED:
-            return True
-        if status == NONE:
-            return False
-        if status == OVER:
-            return None
-        if int(count[0]) + int(counts.max()) + 1 > len(heap_h):
-            heap_h = np.concatenate([heap_h, np.empty(len(heap_h))])
-            heap_s = np.concatenate([heap_s, np.empty(len(heap_s), dtype=np.int64)])
 
 
 @jit
