@@ -336,15 +336,18 @@ def state_heuristic(  # pragma: no cover - compiled
         return math.inf
     h = max(0.0, d - hf[1])
     if way.shape[0] > 0 and h > 0.0:
-        psi = k * hf[0]
-        # e(ψ) points to the tail: the head leads along ψ + π, the tail along ψ, a side along
-        # ψ ± π/2
-        head = abs(_remainder(psi + math.pi - way[cell], 2 * math.pi))
-        side = abs(_remainder(psi + 0.5 * math.pi - way[cell], math.pi))
-        tail = abs(_remainder(psi - way[cell], 2 * math.pi))
-        lead = _turn_cost(head, hf, risk[cell])
-        lead = min(lead, _turn_cost(side, hf, risk[cell]) + 0.5 * hf[5] * h)
-        lead = min(lead, _turn_cost(tail, hf, risk[cell]) + hf[5] * h)
+        # e(ψ) points to the tail: the tail leads along ψ, the head along ψ + π, a side along
+        # ψ ± π/2, so one angle gives all three turns onto the way
+        tail = abs(_remainder(k * hf[0] - way[cell], 2 * math.pi))
+        head, side = math.pi - tail, abs(0.5 * math.pi - tail)
+        r = risk[cell]
+        lead = _turn_cost(head, hf, r)
+        # A turn's cost grows with its angle (risk is a log-probability, <= 0) and the reverse
+        # penalty is >= 0: a lead turning further than a cheaper-penalised one cannot be least.
+        if side < head:
+            lead = min(lead, _turn_cost(side, hf, r) + 0.5 * hf[5] * h)
+        if tail < head and tail < side:
+            lead = min(lead, _turn_cost(tail, hf, r) + hf[5] * h)
         h += lead
     return float(h)
 
