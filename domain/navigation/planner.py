@@ -26,8 +26,8 @@ from domain.navigation.lattice.costs import (
     CostInputs,
     KernelTable,
     cost_parameters,
+    flat_cells,
     kernel_table,
-    quiet_cells,
     start_costs,
     with_start_margins,
 )
@@ -117,8 +117,8 @@ class Planner:
             at, facing = (near[0], near[1]), (float(tip[0]), float(tip[1]), near[2] + math.pi)
         risk = world.risk(at, c.sensing_horizon, c.beyond_horizon, facing)
         blocked = world.blocked()
-        quiet = quiet_cells(risk, blocked, table.cell_reach_new + 1)
-        return CostInputs(grid.nx, grid.ny, gf, lethal, geo, risk, blocked, quiet, params)
+        flat = flat_cells(risk, blocked, table.cell_reach_new + 1)
+        return CostInputs(grid.nx, grid.ny, gf, lethal, geo, risk, blocked, flat, params)
 
     def start_table(
         self, table: MotionTable, start: Key, inputs: CostInputs

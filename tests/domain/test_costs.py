@@ -13,9 +13,9 @@ import pytest
 from domain.navigation import NavigationSettings, Planner
 from domain.navigation.lattice.costs import (
     CostInputs,
+    flat_cells,
     kernel_table,
     lethal_part,
-    quiet_cells,
     risk_part,
     start_costs,
     state_costs,
@@ -193,23 +193,60 @@ def test_the_compiled_cost_evaluation_equals_its_python_form(seed: int) -> None:
         for fn in (risk_part, risk_part.py_func):
             extra = np.empty(n)
             fn(
-                number, inputs.nx, inputs.ny, inputs.risk, inputs.blocked, inputs.quiet,
-                kt.cells, kt.cell_segments, inputs.params, extra,
+                number, inputs.nx, inputs.ny, inputs.risk, inputs.blocked, inputs.flat,
+                kt.cells, kt.cell_segments, kt.cell_counts, inputs.params, extra,
             )  # fmt: skip
             extras.append(extra)
         np.testing.assert_array_equal(extras[0], extras[1])
     assert seen_bits == {True, False}  # states with every motion valid, and with some not
 
 
-def test_quiet_cells_are_those_with_no_risk_within_reach() -> None:
+def test_flat_cells_are_those_whose_reach_holds_one_risk_and_one_blocked_value() -> None:
     rng = np.random.default_rng(3)
     risk = np.where(rng.random((30, 20)) < 0.02, -0.1, 0.0)
+    risk[:, 12:] += -0.3  # a prior over never-observed cells
     blocked = np.where(rng.random((30, 20)) < 0.01, -0.2, 0.0)
     reach = 3
-    got = quiet_cells(risk, blocked, reach)
-    some = (risk != 0) | (blocked != 0)
+    got = flat_cells(risk, blocked, reach)
+
+    def alike(i: int, j: int, r: int) -> bool:
+        box = np.s_[max(0, i - r) : i + r + 1, max(0, j - r) : j + r + 1]
+        return bool((risk[box] == risk[i, j]).all() and (blocked[box] == blocked[i, j]).all())
+
     for i in range(30):
         for j in range(20):
-            box = some[max(0, i - reach) : i + reach + 1, max(0, j - reach) : j + reach + 1]
-            assert got[i, j] == (not box.any()), (i, j)
+            inside = reach <= i < 30 - reach and reach <= j < 20 - reach
+            zero = risk[i, j] == 0 and blocked[i, j] == 0
+            if got[i, j]:  # sound: every cell within reach has the cell's values
+                assert alike(i, j, reach) and (inside or zero), (i, j)
+            elif inside or zero:  # and it misses none whose box, one cell wider, is alike
+                assert not alike(i, j, reach + 1), (i, j)
     assert got.any() and not got.all()
+    assert (got & (risk != 0)).any()  # flat under the prior, not only where there is none
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_motions_risk_from_a_flat_cell_is_the_sum_over_its_cells(seed: int) -> None:
+    """The shortcut (a flat cell's values times the motions' cell counts) and the sum over
+    every new cell agree (to rounding) wherever the shortcut is taken."""
+    inputs, p = random_inputs(seed)
+    risk = np.full((inputs.nx, inputs.ny), -0.02)
+    risk[: inputs.nx // 2] = 0.0
+    blocked = np.zeros_like(risk)
+    blocked[:, : inputs.ny // 3] = -0.05
+    kt = kernel_table(STRAIGHT, SETTINGS.margin)
+    flat = flat_cells(risk, blocked, STRAIGHT.cell_reach_new + 1)
+    assert flat.any()
+    n = len(STRAIGHT.motions)
+    rng = np.random.default_rng(seed)
+    for number in rng.integers(0, p.grid.size, 400).tolist():
+        i, j = divmod(number % (inputs.nx * inputs.ny), inputs.ny)
+        if not flat[i, j]:
+            continue
+        got, full = np.empty(n), np.empty(n)
+        for out, where in ((got, flat), (full, np.zeros_like(flat))):
+            risk_part(
+                number, inputs.nx, inputs.ny, risk, blocked, where, kt.cells,
+                kt.cell_segments, kt.cell_counts, inputs.params, out,
+            )  # fmt: skip
+        np.testing.assert_allclose(got, full, rtol=1e-12, atol=1e-12)

@@ -50,7 +50,8 @@ class KernelTable:
     (``check_needs``, ``check_fails``; ``motions.CellChecks``), the points by cell
     (``grouped`` ``[K, P, 3]``: x, y, need with the margin; ``check_points``: each cell's
     bounds), each motion's cells (``check_segments``), the motions' cell deltas, lengths and
-    new cells (``cells`` ``[K, N, 3]``: di, dj, blind; ``cell_segments``)."""
+    new cells (``cells`` ``[K, N, 3]``: di, dj, blind; ``cell_segments``; ``cell_counts``
+    ``[K, M, 2]``: how many of a motion's new cells are blind and how many seen)."""
 
     checks: NDArray[np.int64]
     check_needs: Array
@@ -64,6 +65,7 @@ class KernelTable:
     lead_lengths: Array  # [M] length x how far the tail leads (``motions.tail_lead``)
     cells: NDArray[np.int64]
     cell_segments: NDArray[np.int64]
+    cell_counts: NDArray[np.int64]
     open_need: float  # centroid clearance beyond which every point keeps its need + margin
 
     def bin(self, k: int) -> KernelTable:
@@ -83,6 +85,7 @@ class KernelTable:
             cell_reach=self.cell_reach[one],
             cells=self.cells[one],
             cell_segments=self.cell_segments[one],
+            cell_counts=self.cell_counts[one],
         )
 
 
@@ -108,6 +111,7 @@ def kernel_table(table: MotionTable, margin: float) -> KernelTable:
     check_segments = np.zeros((K, M + 1), dtype=np.int64)
     cells = np.zeros((K, n_cells, 3), dtype=np.int64)
     cell_segments = np.zeros((K, M + 1), dtype=np.int64)
+    cell_counts = np.zeros((K, M, 2), dtype=np.int64)
     for k in range(K):
         checks[k, : len(table.checks[k])] = table.checks[k]
         n = len(table.check_needs[k])
@@ -120,6 +124,12 @@ def kernel_table(table: MotionTable, margin: float) -> KernelTable:
         check_segments[k] = table.check_segments[k]
         cells[k, : len(table.cells[k])] = table.cells[k]
         cell_segments[k] = table.cell_segments[k]
+        for m in range(M):
+            blind = table.cells[k][cell_segments[k, m] : cell_segments[k, m + 1], 2]
+            cell_counts[k, m] = (
+                int(np.count_nonzero(blind)),
+                len(blind) - int(np.count_nonzero(blind)),
+            )
     out = KernelTable(
         checks,
         check_needs,
@@ -133,6 +143,7 @@ def kernel_table(table: MotionTable, margin: float) -> KernelTable:
         np.ascontiguousarray(table.lengths * table.leads, dtype=np.float64),
         cells,
         cell_segments,
+        cell_counts,
         table.open_clearance + table.settings.resolution + margin,
     )
     if len(_TABLES) >= TABLES_KEPT:
@@ -297,27 +308,33 @@ def risk_part(  # pragma: no cover - compiled
     ny: int,
     risk: Array,
     blocked: Array,
-    quiet: Array,
+    flat: Array,
     cells: Array,
     cell_segments: Array,
+    cell_counts: Array,
     params: Array,
     extra: Array,
 ) -> None:
     """Into ``extra``, what each motion of state ``number`` risks, valid or not: ``contact
     cost`` times the contacts expected over its blind new cells (``risk``: log P(free) per
     cell; a cell's -log P(free) is the obstacles expected in it, as a Poisson count) and
-    ``blocked cost`` times those expected over the cells the head sees first (``blocked``);
-    0 from a cell where ``quiet`` holds (no risk within any motion's reach)."""
+    ``blocked cost`` times those expected over the cells the head sees first (``blocked``).
+    From a cell where ``flat`` holds (``flat_cells``: both alike over every motion's reach),
+    the sums are the cell's own values times the motions' cell counts."""
     plane = nx * ny
     k, cell = number // plane, number % plane
     i, j = cell // ny, cell % ny
     n_motions = cell_segments.shape[1] - 1
     contact, block = params[3], params[4]
-    calm = quiet[i, j]
+    if flat[i, j]:
+        r, b = risk[i, j], blocked[i, j]
+        for m in range(n_motions):
+            extra[m] = -contact * (r * cell_counts[k, m, 0]) - block * (b * cell_counts[k, m, 1])
+        return
     for m in range(n_motions):
         unseen = 0.0  # log P(free) of the blind new cells
         seen = 0.0  # ... and of those the head sees first
-        for c in range(cell_segments[k, m], cell_segments[k, m + 1] if not calm else 0):
+        for c in range(cell_segments[k, m], cell_segments[k, m + 1]):
             ci, cj = i + cells[k, c, 0], j + cells[k, c, 1]
             if 0 <= ci < nx and 0 <= cj < ny:
                 if cells[k, c, 2]:
@@ -337,8 +354,8 @@ def add_costs(base: Array, extra: Array, costs: Array) -> None:  # pragma: no co
 @dataclass
 class CostInputs:
     """What ``evaluate`` reads of one search's world: the grid's numbers, the lethal
-    clearance and its geometry, the risk of blind and of seen cells (and where there is
-    none within a motion's reach), the cost parameters."""
+    clearance and its geometry, the risk of blind and of seen cells (and where either is
+    alike over a motion's reach), the cost parameters."""
 
     nx: int
     ny: int
@@ -347,7 +364,7 @@ class CostInputs:
     geo: Array
     risk: Array
     blocked: Array
-    quiet: NDArray[np.bool_]
+    flat: NDArray[np.bool_]
     params: Array
 
 
@@ -368,8 +385,8 @@ def risk_costs(number: int, inputs: CostInputs, kt: KernelTable) -> NDArray[np.f
     """``risk_part`` of one state from Python."""
     extra = np.empty(kt.cell_segments.shape[1] - 1)
     risk_part(
-        number, inputs.nx, inputs.ny, inputs.risk, inputs.blocked, inputs.quiet, kt.cells,
-        kt.cell_segments, inputs.params, extra,
+        number, inputs.nx, inputs.ny, inputs.risk, inputs.blocked, inputs.flat, kt.cells,
+        kt.cell_segments, kt.cell_counts, inputs.params, extra,
     )  # fmt: skip
     return extra
 
@@ -390,12 +407,27 @@ def start_costs(
     return state_costs(number % (inputs.nx * inputs.ny), inputs, kt_bin)
 
 
-def quiet_cells(risk: Array, blocked: Array, reach: int) -> NDArray[np.bool_]:
-    """Per cell, whether no cell within ``reach`` cells (a box) has any risk: a motion from
-    there reads none (a maximum filter of the cells with some, separable)."""
-    some = (risk != 0.0) | (blocked != 0.0)
-    box = ndimage.maximum_filter(some, size=2 * reach + 1, mode="constant", cval=False)
-    out: NDArray[np.bool_] = ~box
+def flat_cells(risk: Array, blocked: Array, reach: int) -> NDArray[np.bool_]:
+    """Per cell, whether every cell within ``reach`` cells (a box) has its risk and its
+    blocked value, and the box lies inside the grid unless both are 0: a motion from there
+    reads those values on each of its cells (a maximum filter of the cells beside a
+    different one, separable). Risk is piecewise constant (the never-observed prior, near
+    and beyond the horizon; none where observed), so most cells are flat."""
+    edge = np.zeros(risk.shape, dtype=bool)
+    for layer in (risk, blocked):
+        across = layer[1:, :] != layer[:-1, :]
+        edge[1:, :] |= across
+        edge[:-1, :] |= across
+        along = layer[:, 1:] != layer[:, :-1]
+        edge[:, 1:] |= along
+        edge[:, :-1] |= along
+    out: NDArray[np.bool_] = ~ndimage.maximum_filter(
+        edge, size=2 * reach + 1, mode="constant", cval=False
+    )
+    nx, ny = risk.shape
+    inside = np.zeros(risk.shape, dtype=bool)
+    inside[reach : nx - reach, reach : ny - reach] = True
+    out &= inside | ((risk == 0.0) & (blocked == 0.0))
     return out
 
 

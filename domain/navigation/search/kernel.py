@@ -150,11 +150,11 @@ def search(task: LatticeTask, heuristic: CostHeuristic, weight: float, budget: i
             stop_if_due(task.cancel, task.deadline)
             status = _run(
                 CHUNK, budget, weight, start, start_bits, start_costs, near_states, dims,
-                inputs.values, inputs.geo, inputs.risk, inputs.blocked, inputs.quiet,
+                inputs.values, inputs.geo, inputs.risk, inputs.blocked, inputs.flat,
                 kt.open_need, inputs.params, kt.checks, kt.check_needs, kt.check_fails,
                 kt.check_points, kt.grouped, kt.check_segments, kt.deltas, kt.cell_reach,
                 kt.lengths, kt.lead_lengths, kt.cells,
-                kt.cell_segments, task.motion_targets,
+                kt.cell_segments, kt.cell_counts, task.motion_targets,
                 heuristic.dims, heuristic.hf, heuristic.values, heuristic.way, heuristic.risk,
                 lethal.index.keys, lethal.index.values, lethal.index.size, lethal.ints,
                 lethal.floats, lethal.used, risky.index.keys, risky.index.values,
@@ -244,11 +244,11 @@ def _pop(  # pragma: no cover - compiled
 def _run(  # pragma: no cover - compiled
     chunk: int, budget: int, weight: float, start: int, start_bits: int, start_costs: Array,
     near_states: NDArray[np.int64], dims: NDArray[np.int64], values: Array, geo: Array,
-    risk: Array, blocked: Array, quiet: Array, open_need: float, params: Array,
+    risk: Array, blocked: Array, flat: Array, open_need: float, params: Array,
     checks: Array, check_needs: Array, check_fails: Array, check_points: Array,
     grouped: Array, check_segments: Array, deltas: Array, cell_reach: Array,
     lengths: Array, lead_lengths: Array, cells: Array,
-    cell_segments: Array, targets: Array,
+    cell_segments: Array, cell_counts: Array, targets: Array,
     h_dims: NDArray[np.int64], h_f: Array, h_values: Array, h_way: Array, h_risk: Array,
     lk: Array, lv: Array, ls: Array, lethal_bits: Array, lethal_base: Array, lethal_used: Array,
     rk: Array, rv: Array, rs: Array, risk_extra: Array, risk_used: Array,
@@ -331,7 +331,10 @@ def _run(  # pragma: no cover - compiled
                 for m in range(n_motions):
                     extra[m] = risk_extra[row, m]
             else:
-                risk_part(state, nx, ny, risk, blocked, quiet, cells, cell_segments, params, extra)
+                risk_part(
+                    state, nx, ny, risk, blocked, flat, cells, cell_segments, cell_counts,
+                    params, extra,
+                )  # fmt: skip
                 row = risk_used[0]
                 for m in range(n_motions):
                     risk_extra[row, m] = extra[m]
