@@ -115,6 +115,23 @@ def test_the_compiled_search_finds_what_the_python_cost_search_finds(name: str) 
 
 
 @compiled_only
+def test_a_motion_cache_that_starts_afresh_mid_search_changes_no_plan(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A cache whose parts keep only 64 states' rows (a worker with little memory) starts
+    afresh many times within one search: the search finds the same plan at the same costs."""
+    from domain.navigation.lattice import cache
+
+    case = CASES["cluttered-13"]
+    roomy = outcome(case, compiled=True)
+    monkeypatch.setattr(cache, "ROWS_LIMIT", 64)
+    small = outcome(case, compiled=True)
+    assert roomy["status"] == small["status"] == "solved" and roomy["expansions"] > 64
+    assert small["plan"] == roomy["plan"]
+    np.testing.assert_allclose(small["costs"], roomy["costs"], rtol=0, atol=1e-12)
+
+
+@compiled_only
 def test_a_search_stopped_by_its_budget_reports_as_many_expansions_either_way() -> None:
     case = CASES["budget-10"]
     python, kernel = outcome(case, compiled=False), outcome(case, compiled=True)
