@@ -280,7 +280,8 @@ def wait_warm(base: str, timeout: float = WARM_TIMEOUT) -> dict[str, int]:
 
 
 def run(executor: str, n: int, load: bool, pool: int | None) -> dict[str, Any]:
-    env = {"SCREWSNAKE_EXECUTOR": executor}
+    # The workers warm up as the service's do by default (the test servers' do not).
+    env = {"SCREWSNAKE_EXECUTOR": executor, "SCREWSNAKE_WARM_UP": "1"}
     if pool is not None:
         env["SCREWSNAKE_MAX_RUNNING"] = str(pool)
     with tempfile.TemporaryDirectory() as tmp, burner(load):
