@@ -24,20 +24,17 @@ from sim.robot import Array
 
 ROWS_LIMIT = 1_000_000  # states whose rows are kept (~200 B each); then a part starts afresh
 # (what it forgets is evaluated again when met: no plan changes)
-FIRST_SLOTS = 131072  # the index's slots at first (rehashed into twice as many when full)
+FIRST_ROWS = 65536
 
 
 class Rows:
-    """State number -> a row of ``ints`` (one) and ``floats`` (``width``), up to ``limit``."""
+    """State number -> a row of ``ints`` (one) and ``floats`` (``width``), grown on demand."""
 
     def __init__(self, width: int, limit: int = ROWS_LIMIT) -> None:
-        self.index = Store(FIRST_SLOTS)
-        # All ``limit`` rows at once, never copied: the memory is the system's until a row is
-        # first written (every row is written whole before it is read; ``used`` counts those
-        # handed out). Growing by doubling copied every row each time into fresh pages, which
-        # the first touch makes dear on a virtual machine (~10 ms per MB).
-        self.ints = np.empty(limit, dtype=np.int64)
-        self.floats = np.empty((limit, max(1, width)))
+        self.index = Store(2 * FIRST_ROWS)
+        # (rows are written whole before they are read: ``used`` counts those handed out)
+        self.ints = np.empty(FIRST_ROWS, dtype=np.int64)
+        self.floats = np.empty((FIRST_ROWS, max(1, width)))
         self.used = np.zeros(1, dtype=np.int64)  # rows handed out
         self.limit = limit
 
@@ -49,10 +46,14 @@ class Rows:
         self.used[0] = 0
 
     def room(self, more: int) -> None:
-        """Room for ``more`` new rows and their keys (started afresh past the limit)."""
+        """Room for ``more`` new rows and their keys (grown, or started afresh past the limit)."""
         if int(self.used[0]) + more > self.limit:
             self.clear()
         self.index.room(more)
+        while int(self.used[0]) + more > len(self.ints):
+            grow = len(self.ints)
+            self.ints = np.concatenate([self.ints, np.empty(grow, dtype=np.int64)])
+            self.floats = np.concatenate([self.floats, np.empty((grow, self.floats.shape[1]))])
 
     def forget(self, changed: NDArray[np.bool_], grid: LatticeGrid, reach: float) -> None:
         """Drop the states within ``reach`` metres of a changed cell (``changed``: the grid)."""
