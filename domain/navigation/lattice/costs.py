@@ -126,10 +126,8 @@ def kernel_table(table: MotionTable, margin: float) -> KernelTable:
         cell_segments[k] = table.cell_segments[k]
         for m in range(M):
             blind = table.cells[k][cell_segments[k, m] : cell_segments[k, m + 1], 2]
-            cell_counts[k, m] = (
-                int(np.count_nonzero(blind)),
-                len(blind) - int(np.count_nonzero(blind)),
-            )
+            n_blind = int(np.count_nonzero(blind))
+            cell_counts[k, m] = n_blind, len(blind) - n_blind
     out = KernelTable(
         checks,
         check_needs,

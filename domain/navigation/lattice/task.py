@@ -106,6 +106,7 @@ class LatticeTask(Task):  # type: ignore[misc]
         self._pending: list[tuple[NDArray[np.int64], NDArray[np.int64], Any, Any]] = []
         self._size = grid.size
         self._start_costs: tuple[int, NDArray[np.float64]] | None = None
+        self._near_states: NDArray[np.int64] | None = None
         # Per bin and motion: the next state's number less the cell's (i * ny + j), as
         # ``encode`` numbers them: (k' * nx + i + di) * ny + j + dj.
         K, d = grid.settings.orientations, table.deltas
@@ -225,8 +226,11 @@ class LatticeTask(Task):  # type: ignore[misc]
         return math.hypot(cx + dx - self.goal[0], cy + dy - self.goal[1]) <= self.reach
 
     def near_states(self) -> NDArray[np.int64]:
-        """Every state where the head is on the goal (``is_near``), sorted."""
-        return near_goal_states(self)
+        """Every state where the head is on the goal (``is_near``), sorted (made once: the
+        search and both walks of ``search.reach`` read it)."""
+        if self._near_states is None:
+            self._near_states = near_goal_states(self)
+        return self._near_states
 
     # -- motions ------------------------------------------------------------------------------
     def start_costs(self) -> tuple[int, NDArray[np.float64]]:

@@ -56,32 +56,32 @@ def lattice_reaches(task: LatticeTask, heuristic: CostHeuristic, states: int) ->
     back: _Back | None = None
     while True:
         stop_if_due(task.cancel, task.deadline)
-        status = forward.step() if forward.status == RUNNING else forward.status
-        if status in (REACHED, NONE):
-            return Reach(status == REACHED, "start", forward.met)
-        if back is None:
-            back = _Back(task, states)
+        if forward.step() in (REACHED, NONE):
+            return Reach(forward.status == REACHED, "start", forward.met)
+        back = back or _Back(task, states)  # (made once the start's side did not answer at once)
         stop_if_due(task.cancel, task.deadline)
-        if back.status == RUNNING:
-            back.step()
-        if back.status in (REACHED, NONE):
+        if back.step() in (REACHED, NONE):
             return Reach(back.status == REACHED, "goal", forward.met)
-        if forward.status == OVER and back.status == OVER:
+        if forward.status == back.status == OVER:
             return Reach(None, "goal", forward.met)
 
 
-class _Forward:
-    """The walk from the start's side, resumable a chunk at a time."""
+class _Walk:
+    """One side's walk, resumable a chunk at a time: ``step`` runs the next chunk (once the
+    walk has ended, it only says how), ``status`` what the last one ended with. A side sets
+    ``fanout``, the most states one state adds to its heap, and its chunk (``_chunk``)."""
 
-    def __init__(self, task: LatticeTask, heuristic: CostHeuristic, states: int) -> None:
+    fanout = 0
+
+    def __init__(self, task: LatticeTask, states: int, capacity: int) -> None:
         grid = task.grid
-        self.task, self.heuristic, self.states = task, heuristic, states
+        self.task, self.states = task, states
         self.dims = np.array([grid.nx, grid.ny, grid.settings.orientations], dtype=np.int64)
         self.start_bits = task.start_costs()[0]
-        self.seen = np.zeros(grid.size, dtype=np.bool_)
-        self.heap_h, self.heap_s = np.empty(1 << 14), np.empty(1 << 14, dtype=np.int64)
-        self.count = np.zeros(3, dtype=np.int64)  # heap size, states met, started
         self.near = task.near_states()
+        self.seen = np.zeros(grid.size, dtype=np.bool_)
+        self.heap_h, self.heap_s = np.empty(capacity), np.empty(capacity, dtype=np.int64)
+        self.count = np.zeros(3, dtype=np.int64)  # heap size, states met, started
         self.status = RUNNING
 
     @property
@@ -89,58 +89,61 @@ class _Forward:
         return int(self.count[1])
 
     def step(self) -> int:
+        if self.status == RUNNING:
+            self.status = self._chunk()
+            if int(self.count[0]) + self.fanout + 1 > len(self.heap_h):  # twice the room
+                self.heap_h = np.concatenate([self.heap_h, np.empty(len(self.heap_h))])
+                self.heap_s = np.concatenate(
+                    [self.heap_s, np.empty(len(self.heap_s), dtype=np.int64)]
+                )
+        return self.status
+
+    def _chunk(self) -> int:
+        raise NotImplementedError
+
+
+class _Forward(_Walk):
+    """The walk from the start's side, greedy by the cost heuristic."""
+
+    def __init__(self, task: LatticeTask, heuristic: CostHeuristic, states: int) -> None:
+        super().__init__(task, states, 1 << 14)
+        self.heuristic = heuristic
+        self.fanout = len(task.table.motions)
+
+    def _chunk(self) -> int:
         task, kt, inputs, h = self.task, self.task.kt, self.task.inputs, self.heuristic
-        self.status = _walk(
+        status: int = _walk(
             CHUNK, self.states, task.start_number, self.start_bits, self.near, self.dims,
             inputs.values, inputs.geo, kt.open_need, inputs.params, kt.checks, kt.check_needs,
             kt.check_fails, kt.check_points, kt.grouped, kt.check_segments, kt.deltas,
             kt.cell_reach, kt.lengths, kt.lead_lengths, task.motion_targets, h.dims, h.hf,
             h.values, h.way, h.risk, self.seen, self.heap_h, self.heap_s, self.count,
         )  # fmt: skip
-        if int(self.count[0]) + len(task.table.motions) + 1 > len(self.heap_h):
-            self.heap_h, self.heap_s = _grown(self.heap_h, self.heap_s)
-        return self.status
+        return status
 
 
-class _Back:
-    """The walk from the goal's side (see the module's docstring), resumable a chunk at a
-    time: ``REACHED`` when the start can reach the goal, ``NONE`` when the states that can
-    run out without it, ``OVER`` past ``states``."""
+class _Back(_Walk):
+    """The walk from the goal's side (see the module's docstring), nearest the start first:
+    ``REACHED`` when the start can reach the goal, ``NONE`` when the states that can run out
+    without it, ``OVER`` past ``states``."""
 
     def __init__(self, task: LatticeTask, states: int) -> None:
-        grid, kt = task.grid, task.kt
-        self.task, self.states = task, states
-        self.dims = np.array([grid.nx, grid.ny, grid.settings.orientations], dtype=np.int64)
-        self.start_bits = task.start_costs()[0]
-        self.near = task.near_states()
-        self.preds = predecessors(np.asarray(kt.deltas, dtype=np.int64), grid.settings.orientations)
-        self.seen = np.zeros(grid.size, dtype=np.bool_)
-        capacity = max(1 << 14, 2 * self.near.size)
-        self.heap_h, self.heap_s = np.empty(capacity), np.empty(capacity, dtype=np.int64)
-        self.count = np.zeros(3, dtype=np.int64)
-        self.status = RUNNING
+        super().__init__(task, states, max(1 << 14, 2 * task.near_states().size))
+        K = task.grid.settings.orientations
+        self.preds = predecessors(np.asarray(task.kt.deltas, dtype=np.int64), K)
+        self.fanout = int(self.preds[2].max())
 
-    def step(self) -> int:
+    def _chunk(self) -> int:
         task, kt, inputs = self.task, self.task.kt, self.task.inputs
         bins, motions, counts = self.preds
         si, sj, _k = task.start_key
-        self.status = _walk_back(
+        status: int = _walk_back(
             CHUNK, self.states, task.start_number, self.start_bits, self.near, self.dims,
             inputs.values, inputs.geo, kt.checks, kt.check_needs, kt.check_fails,
             kt.check_points, kt.grouped, kt.check_segments, kt.deltas, bins, motions, counts,
             si, sj, self.seen, self.heap_h, self.heap_s, self.count,
         )  # fmt: skip
-        if int(self.count[0]) + int(counts.max()) + 1 > len(self.heap_h):
-            self.heap_h, self.heap_s = _grown(self.heap_h, self.heap_s)
-        return self.status
-
-
-def _grown(heap_h: Array, heap_s: NDArray[np.int64]) -> tuple[Array, NDArray[np.int64]]:
-    """A walk's heap with twice the room (its entries kept)."""
-    return (
-        np.concatenate([heap_h, np.empty(len(heap_h))]),
-        np.concatenate([heap_s, np.empty(len(heap_s), dtype=np.int64)]),
-    )
+        return status
 
 
 def predecessors(deltas: NDArray[np.int64], K: int) -> tuple[NDArray[np.int64], ...]:
