@@ -36,7 +36,7 @@ from domain.navigation.lattice.motions import MotionTable, body_key
 from domain.navigation.lattice.states import StatePool
 from domain.navigation.lattice.task import LatticeTask
 from domain.navigation.plan import Failure, Plan, PlanAction, PlanRequest, Proof, leg_reach
-from domain.navigation.search.heuristic import CostHeuristic, cost_map, step_weights, way_of
+from domain.navigation.search.heuristic import CostHeuristic, cost_map, step_weights
 from domain.navigation.search.reach import lattice_reaches
 from domain.navigation.settings import NavigationSettings
 from domain.pyperplan_adapter import HEURISTICS, CancelFlag, SearchStopped, stop_if_due
@@ -257,13 +257,7 @@ class Planner:
         """A leg's obstacle heuristic with the turn onto the way (``CostHeuristic``)."""
         table = task.table
         reach = float(np.linalg.norm(table.offset))
-        key = ("way", id(distances))
-        way = self._maps.get(key)
-        if way is None or self._maps.get(("way-of", id(distances))) is not distances:
-            way = way_of(distances)
-            self._maps[key], self._maps[("way-of", id(distances))] = way, distances
         align = (
-            way,
             task.inputs.risk,
             table.turn_cost,
             table.blind_per_radian,

@@ -18,7 +18,14 @@ from domain.navigation import search as searches
 from domain.navigation.lattice.costs import kernel_table, lethal_costs, risk_costs
 from domain.navigation.lattice.states import LatticeState, StatePool, at_fact
 from domain.navigation.search import heuristic as heuristics
-from domain.navigation.search.heuristic import cells_within, state_heuristic, weighted_geodesic
+from domain.navigation.search.heuristic import (
+    cells_within,
+    state_heuristic,
+    way_at,
+    way_fill,
+    way_of,
+    weighted_geodesic,
+)
 from domain.pyperplan_adapter import SearchStopped
 from domain.world import CostmapSettings, RangeObservation, WorldModel
 from sim.world import Bounds
@@ -238,8 +245,25 @@ def test_the_heuristic_s_kernels_equal_their_python_forms(
     task, heuristic = leg("cluttered", 4.0, seed, "straight", 5, True)
     numbers = rng.integers(0, task.grid.size, 400).tolist()
     for number in numbers:
-        args = (heuristic.dims, heuristic.hf, heuristic.values, heuristic.way, heuristic.risk)
+        args = (heuristic.dims, heuristic.hf, heuristic.values, heuristic.risk)
         assert state_heuristic(number, *args) == state_heuristic.py_func(number, *args)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_cells_way_from_its_neighbours_is_the_whole_maps_gradient(seed: int) -> None:
+    """The heuristic turns a state onto the map's way at its own cell only: that way, from the
+    cell's neighbours (edges and cut-off cells included), is numpy's gradient of the whole map,
+    float for float, compiled and not."""
+    rng = np.random.default_rng(seed)
+    for shape in [(2, 9), (9, 2), (40, 33)]:
+        values = rng.random(shape) * 20.0
+        values[rng.random(shape) < 0.2] = math.inf
+        want = way_of(values)
+        flat, fill = values.ravel(), way_fill(values)
+        for i in range(shape[0]):
+            for j in range(shape[1]):
+                got = way_at(flat, shape[0], shape[1], i, j, fill)
+                assert got == want[i, j] == way_at.py_func(flat, shape[0], shape[1], i, j, fill)
 
 
 @compiled_only

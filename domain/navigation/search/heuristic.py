@@ -271,21 +271,21 @@ class CostHeuristic(Heuristic):  # type: ignore[misc]
         task: Any,
         values: Array,
         reach: float,
-        align: tuple[Array, Array, float, float, float, float] | None = None,
+        align: tuple[Array, float, float, float, float] | None = None,
     ) -> None:
         self.task, self.reach = task, reach
         self.values = np.ascontiguousarray(values, dtype=np.float64).ravel()
         grid = task.grid
         self.dims = np.array([grid.nx, grid.ny, grid.settings.orientations], dtype=np.int64)
         if align is None:
-            self.way, self.risk = np.zeros(0), np.zeros(0)
-            turn_length = cells_per_rad = contact = reverse = 0.0
+            self.risk = np.zeros(0)
+            turn_length = cells_per_rad = contact = reverse = fill = 0.0
         else:
-            way, risk, turn_length, cells_per_rad, contact, reverse = align
-            self.way = np.ascontiguousarray(way, dtype=np.float64).ravel()
+            risk, turn_length, cells_per_rad, contact, reverse = align
             self.risk = np.ascontiguousarray(risk, dtype=np.float64).ravel()
+            fill = way_fill(self.values)
         self.hf = np.array(
-            [grid.settings.step, reach, turn_length, cells_per_rad, contact, reverse]
+            [grid.settings.step, reach, turn_length, cells_per_rad, contact, reverse, fill]
         )
 
     def __call__(self, node: Any) -> float:
@@ -301,17 +301,58 @@ class CostHeuristic(Heuristic):  # type: ignore[misc]
             if found is None:
                 return math.inf
             number = found
-        return float(state_heuristic(number, self.dims, self.hf, self.values, self.way, self.risk))
+        return float(state_heuristic(number, self.dims, self.hf, self.values, self.risk))
+
+
+def way_fill(distances: Array) -> float:
+    """What a cut-off cell reads as when the way is taken: just beyond the farthest reached."""
+    finite = distances[np.isfinite(distances)]
+    return float(np.max(finite, initial=0.0)) + 1.0
 
 
 def way_of(distances: Array) -> Array:
     """Per cell, the direction (radians) a map's way leads: its steepest descent (cells cut off
-    read as just beyond the farthest reached)."""
+    read as ``way_fill``). The reference ``state_heuristic`` is held to: it takes one cell's
+    way where it needs it (most cells' never are)."""
     finite = np.isfinite(distances)
-    filled = np.where(finite, distances, float(np.max(distances[finite], initial=0.0)) + 1.0)
+    filled = np.where(finite, distances, way_fill(distances))
     gx, gy = np.gradient(filled)
     out: Array = np.arctan2(-gy, -gx)
     return out
+
+
+@jit
+def _filled(values: Array, cell: int, fill: float) -> float:  # pragma: no cover - compiled
+    v = values[cell]
+    return float(v) if v < math.inf else fill
+
+
+@jit
+def way_at(  # pragma: no cover - compiled
+    values: Array, nx: int, ny: int, i: int, j: int, fill: float
+) -> float:
+    """``way_of(values.reshape(nx, ny))[i, j]``, from the cell's neighbours alone: numpy's
+    gradient (central differences inside, one-sided at the edges) and arctan2, the same
+    operations on the same floats."""
+    gx = gy = 0.0
+    if nx > 1:
+        if i == 0:
+            gx = _filled(values, ny + j, fill) - _filled(values, j, fill)
+        elif i == nx - 1:
+            gx = _filled(values, i * ny + j, fill) - _filled(values, (i - 1) * ny + j, fill)
+        else:
+            gx = (
+                _filled(values, (i + 1) * ny + j, fill) - _filled(values, (i - 1) * ny + j, fill)
+            ) / 2.0
+    if ny > 1:
+        row = i * ny
+        if j == 0:
+            gy = _filled(values, row + 1, fill) - _filled(values, row, fill)
+        elif j == ny - 1:
+            gy = _filled(values, row + j, fill) - _filled(values, row + j - 1, fill)
+        else:
+            gy = (_filled(values, row + j + 1, fill) - _filled(values, row + j - 1, fill)) / 2.0
+    return float(math.atan2(-gy, -gx))
 
 
 @jit
@@ -320,13 +361,12 @@ def state_heuristic(  # pragma: no cover - compiled
     dims: NDArray[np.int64],
     hf: Array,
     values: Array,
-    way: Array,
     risk: Array,
 ) -> float:
     """A (not visited) state's heuristic value. ``dims``: nx, ny, K; ``hf``: turn step,
-    reach, and for the alignment term (``way`` given) the turn's metres per radian, its blind
-    cells per radian, the contact cost and the reverse penalty; ``values``, ``way``, ``risk``:
-    over the grid, flat."""
+    reach, and for the alignment term (``risk`` given) the turn's metres per radian, its blind
+    cells per radian, the contact cost, the reverse penalty and what a cut-off cell reads as
+    when the way is taken (``way_fill``); ``values``, ``risk``: over the grid, flat."""
     nx, ny = dims[0], dims[1]
     rest, j = number // ny, number % ny
     k, i = rest // nx, rest % nx
@@ -335,10 +375,11 @@ def state_heuristic(  # pragma: no cover - compiled
     if not d < math.inf:
         return math.inf
     h = max(0.0, d - hf[1])
-    if way.shape[0] > 0 and h > 0.0:
+    if risk.shape[0] > 0 and h > 0.0:
         # e(ψ) points to the tail: the tail leads along ψ, the head along ψ + π, a side along
         # ψ ± π/2, so one angle gives all three turns onto the way
-        tail = abs(_remainder(k * hf[0] - way[cell], 2 * math.pi))
+        way = way_at(values, nx, ny, i, j, hf[6])
+        tail = abs(_remainder(k * hf[0] - way, 2 * math.pi))
         head, side = math.pi - tail, abs(0.5 * math.pi - tail)
         r = risk[cell]
         lead = _turn_cost(head, hf, r)

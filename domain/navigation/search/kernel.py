@@ -155,7 +155,7 @@ def search(task: LatticeTask, heuristic: CostHeuristic, weight: float, budget: i
                 kt.check_points, kt.grouped, kt.check_segments, kt.deltas, kt.cell_reach,
                 kt.lengths, kt.lead_lengths, kt.cells,
                 kt.cell_segments, kt.cell_counts, task.motion_targets,
-                heuristic.dims, heuristic.hf, heuristic.values, heuristic.way, heuristic.risk,
+                heuristic.dims, heuristic.hf, heuristic.values, heuristic.risk,
                 lethal.index.keys, lethal.index.values, lethal.index.size, lethal.ints,
                 lethal.floats, lethal.used, risky.index.keys, risky.index.values,
                 risky.index.size, risky.floats, risky.used,
@@ -249,7 +249,7 @@ def _run(  # pragma: no cover - compiled
     grouped: Array, check_segments: Array, deltas: Array, cell_reach: Array,
     lengths: Array, lead_lengths: Array, cells: Array,
     cell_segments: Array, cell_counts: Array, targets: Array,
-    h_dims: NDArray[np.int64], h_f: Array, h_values: Array, h_way: Array, h_risk: Array,
+    h_dims: NDArray[np.int64], h_f: Array, h_values: Array, h_risk: Array,
     lk: Array, lv: Array, ls: Array, lethal_bits: Array, lethal_base: Array, lethal_used: Array,
     rk: Array, rv: Array, rs: Array, risk_extra: Array, risk_used: Array,
     bk: Array, bv: Array, bs: Array,
@@ -267,7 +267,7 @@ def _run(  # pragma: no cover - compiled
     base = np.empty(n_motions)
     extra = np.empty(n_motions)
     if count[NODES] == 0:
-        h = state_heuristic(start, h_dims, h_f, h_values, h_way, h_risk)
+        h = state_heuristic(start, h_dims, h_f, h_values, h_risk)
         node_state[0], node_parent[0], node_g[0], node_op[0], node_h[0] = start, -1, 0.0, -2, h
         count[BEST] = -1
         put(bk, bv, bs, start, 0)
@@ -372,7 +372,7 @@ def _run(  # pragma: no cover - compiled
             at = slot(bk, b)
             if bk[at] == b and bv[at] < 0:
                 continue  # no reopening
-            h = state_heuristic(b, h_dims, h_f, h_values, h_way, h_risk)
+            h = state_heuristic(b, h_dims, h_f, h_values, h_risk)
             if h == math.inf:
                 continue  # no way to the goal from there
             g_child = g + here_costs[m]

@@ -117,7 +117,7 @@ class _Forward(_Walk):
             inputs.values, inputs.geo, kt.open_need, inputs.params, kt.checks, kt.check_needs,
             kt.check_fails, kt.check_points, kt.grouped, kt.check_segments, kt.deltas,
             kt.cell_reach, kt.lengths, kt.lead_lengths, task.motion_targets, h.dims, h.hf,
-            h.values, h.way, h.risk, self.seen, self.heap_h, self.heap_s, self.count,
+            h.values, h.risk, self.seen, self.heap_h, self.heap_s, self.count,
         )  # fmt: skip
         return status
 
@@ -280,7 +280,7 @@ def _walk(  # pragma: no cover - compiled
     checks: Array, check_needs: Array, check_fails: Array, check_points: Array,
     grouped: Array, check_segments: Array, deltas: Array, cell_reach: Array, lengths: Array,
     lead_lengths: Array, targets: Array, h_dims: NDArray[np.int64], h_f: Array, h_values: Array,
-    h_way: Array, h_risk: Array, seen: NDArray[np.bool_],
+    h_risk: Array, seen: NDArray[np.bool_],
     heap_h: Array, heap_s: NDArray[np.int64], count: NDArray[np.int64],
 ) -> int:  # fmt: skip
     """Up to ``chunk`` states of the walk (see the module's docstring); what it ended with."""
@@ -320,7 +320,7 @@ def _walk(  # pragma: no cover - compiled
             if b == state or seen[b]:
                 continue
             seen[b] = True
-            h = state_heuristic(b, h_dims, h_f, h_values, h_way, h_risk)
+            h = state_heuristic(b, h_dims, h_f, h_values, h_risk)
             if h == math.inf:
                 continue  # the 2-D map proves no way on from there
             _push(heap_h, heap_s, count, h, b)
