@@ -114,11 +114,14 @@ class CostmapSettings:
 
     def continuation_log_free(self, distance: NDArray[np.float64]) -> NDArray[np.float64]:
         """log P(free) of never-observed cells ``distance`` metres (between centres, less half a
-        cell) from the nearest sensed cell."""
+        cell) from the nearest sensed cell (0 beyond ``continuation_reach``: priced only where
+        it is not, a few cells round each sensed one rather than the whole grid)."""
+        out: NDArray[np.float64] = np.zeros(np.shape(distance))
+        near = distance <= self.continuation_reach
         q = self.continuation_probability * np.exp(
-            -np.maximum(distance, 0.0) / self.continuation_decay
+            -np.maximum(distance[near], 0.0) / self.continuation_decay
         )
-        out: NDArray[np.float64] = np.where(distance <= self.continuation_reach, np.log1p(-q), 0.0)
+        out[near] = np.log1p(-q)
         return out
 
     @property
