@@ -59,7 +59,8 @@ NOISY = (*SENSORS[:3], (1.0, math.radians(20), 1.5, 0.1), (-1.0, 0.0, 1.5, 0.2))
 )
 def test_compiled_update_equals_numpy(seed: int, sensors) -> None:
     """Along a random walk past obstacles (some known, some hidden), both layers hold the same
-    log-odds bit for bit and report the same cells becoming and ceasing to be occupied."""
+    log-odds bit for bit and report the same cells becoming and ceasing to be occupied, also
+    when the body comes to lie over cells (``free``)."""
     rng = np.random.default_rng(seed)
     world = World(BOUNDS, OBSTACLES)
     model = WorldModel(BOUNDS, OBSTACLES[:2])  # its static layer explains hits on these
@@ -69,7 +70,8 @@ def test_compiled_update_equals_numpy(seed: int, sensors) -> None:
     reference = SensedLayer(model.grid, settings, compiled=False)
     assert compiled.compiled and not reference.compiled
     x, y, psi = -2.5, 0.0, 0.0
-    changes = 0
+    changes = freed = 0
+    marked = False
     for _ in range(300):
         psi += rng.normal(0.0, 0.3)
         x = float(np.clip(x + 0.05 * math.cos(psi), -2.8, 2.8))
@@ -82,8 +84,17 @@ def test_compiled_update_equals_numpy(seed: int, sensors) -> None:
         assert np.array_equal(compiled.log_odds, reference.log_odds)
         assert np.array_equal(compiled.occupied, reference.occupied)
         changes += became.size + ceased.size
-    assert changes > 0  # the walk did mark (and maybe unmark) cells
-    assert np.any(compiled.log_odds < 0) and np.any(compiled.occupied)
+        marked = marked or bool(compiled.occupied.any())
+        if rng.random() < 0.2:  # the body comes to lie over a patch of cells: they are free
+            some = rng.integers(0, model.grid.nx * model.grid.ny, 40)
+            held = np.flatnonzero(reference.occupied)[:3]  # some of them occupied
+            patch = np.unique(np.concatenate([some, held])).astype(np.intp)
+            freed += int(reference.occupied.reshape(-1)[patch].sum())
+            np.testing.assert_array_equal(compiled.free(patch), reference.free(patch))
+            assert np.array_equal(compiled.log_odds, reference.log_odds)
+            assert np.array_equal(compiled.occupied, reference.occupied)
+    assert changes > 0 and freed > 0  # the walk did mark (and maybe unmark) cells
+    assert np.any(compiled.log_odds < 0) and marked
 
 
 def test_no_readings_change_nothing() -> None:

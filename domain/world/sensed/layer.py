@@ -103,6 +103,11 @@ class SensedLayer:
         if not cells.size:
             return cells
         occupied = self.occupied.reshape(-1)
+        if self.compiled:
+            out: Flat = kernel.free_cells(
+                self.log_odds.reshape(-1), occupied, cells, self.settings.log_odds_min
+            )
+            return out
         ceased = cells[occupied[cells]]
         self.log_odds.reshape(-1)[cells] = self.settings.log_odds_min
         occupied[ceased] = False
