@@ -14,15 +14,25 @@ from pathlib import Path
 import pytest
 from fastapi.testclient import TestClient
 
-from app.executor.plan_versions import render
+from app.executor.plan_versions import render, source_of
 from app.main import create_app
 from app.missions.status import MissionStatus
 from app.service.messages import Ended, Job, PlanMade, WorkerMessage
 from app.service.worker import run_mission
 from app.settings import Settings
-from domain.navigation import lattice_domain_text
+from domain.goal_order import LegGoal
+from domain.navigation import (
+    NavigationSettings,
+    Plan,
+    Planner,
+    PlanRequest,
+    lattice_domain_text,
+    motion_table,
+)
 from domain.pyperplan_adapter import validate_plan_text
+from domain.world import WorldModel
 from primitives.library import load_bundled
+from sim.world import Bounds
 from tests.app.test_pddl_export import without_costs
 from tests.service.test_api import wait_end
 
@@ -80,6 +90,29 @@ def test_the_worker_hands_over_sources_never_problem_texts() -> None:
     sent = sum(len(pickle.dumps(m)) for m in out)
     assert sent < sum(len(t) for t in texts) / 20
     assert not any("(define (problem" in repr(m) for m in out)
+
+
+def test_a_versions_source_grows_with_its_search_not_with_the_arena() -> None:
+    """The stored source of a plan version renders the plan's own problem, and the same plan in
+    an arena 16 times the area stores about as much: the lattice's grid is kept as its bounds,
+    not as its cells."""
+    library, settings = load_bundled(), NavigationSettings()
+    table = motion_table(library, "straight", (0.0, 0.0, 0.0), settings)
+    assert table is not None
+    sizes = []
+    for half in (2.5, 10.0):
+        bounds = Bounds(-half, half, -half, half)
+        request = PlanRequest(
+            (-1.0, 0.0, 3.14159), table, (LegGoal(0, 1.0, 0.0, 0.1),), True, WorldModel(bounds)
+        )
+        plan = Planner(bounds, settings).plan(request)
+        assert isinstance(plan, Plan)
+        problem = plan.problem()
+        assert problem is not None
+        source = source_of(plan)
+        assert render(source) == problem.text()
+        sizes.append(len(source))
+    assert sizes[1] < 2 * sizes[0]
 
 
 def test_a_large_problem_is_streamed_compressed_and_capped(lean: TestClient) -> None:

@@ -40,6 +40,11 @@ class LatticeGrid:
     bounds: Bounds
     settings: NavigationSettings
 
+    def __reduce__(self) -> tuple[type[LatticeGrid], tuple[Bounds, NavigationSettings]]:
+        """Pickled as its bounds and settings: the cached arrays below (every cell's centre:
+        most of a plan version's stored source) are made again where they are read."""
+        return LatticeGrid, (self.bounds, self.settings)
+
     # Cached: searches ask for these on every state they touch.
     @cached_property
     def nx(self) -> int:
