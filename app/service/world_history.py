@@ -19,8 +19,9 @@ Cell = tuple[float, float]
 
 
 class WorldView(Protocol):
-    """What the history reads of a world model: versions that change with its layers
-    (``version``, ``soft_version``; optional), and its cells as ``to_dict`` lists them."""
+    """What the history reads of a world model: versions that change with the layers it
+    records (``version``: the sensed cells, ``contact_version``: the contact evidence;
+    optional), and its cells as ``to_dict`` lists them."""
 
     def to_dict(self) -> dict[str, Any]: ...
 
@@ -65,9 +66,10 @@ class WorldHistory:
 
 
 def versions(world: WorldView) -> object:
-    """What changes whenever a layer does (None: the model keeps no versions; every record
-    then reads it)."""
-    kept = tuple(getattr(world, name, None) for name in ("version", "soft_version"))
+    """What changes whenever a recorded layer does (None: the model keeps no versions; every
+    record then reads it). Not the observed cells': they grow at nearly every tick, and
+    reading the whole model for them found no change to record."""
+    kept = tuple(getattr(world, name, None) for name in ("version", "contact_version"))
     return None if kept == (None, None) else kept
 
 

@@ -200,6 +200,11 @@ class WorldModel:
         return True
 
     @property
+    def contact_version(self) -> int:
+        """Counts changes of the contact evidence (a touch added, cleared or faded)."""
+        return int(self._evidence.version)
+
+    @property
     def known(self) -> tuple[Obstacle, ...]:
         """The known obstacles, in the order they were added."""
         return tuple(self._known)

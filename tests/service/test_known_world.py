@@ -106,6 +106,30 @@ def test_world_history_records_changes_only() -> None:
     assert world_at(history.changes, 2.0) == {"sensed": [[0.075, 0.025]], "contacts": []}
 
 
+def test_world_history_reads_the_model_only_when_a_recorded_layer_changed() -> None:
+    """The observed cells change at nearly every tick; the history records the sensed and
+    contact cells, so only their versions make it read the model."""
+
+    class Model:
+        def __init__(self) -> None:
+            self.version = self.contact_version = self.soft_version = self.reads = 0
+
+        def to_dict(self) -> dict[str, Any]:
+            self.reads += 1
+            contact = [[0.125, 0.025]] if self.contact_version else []
+            return {"sensed": [[0.025, 0.025]], "contact": contact}
+
+    model, history = Model(), WorldHistory()
+    for t in range(10):  # observed cells only, every model second
+        model.soft_version += 1
+        history.observe(float(t), model)
+    assert model.reads == 1
+    model.contact_version = 1
+    history.observe(10.0, model)
+    assert model.reads == 2
+    assert history.changes[-1]["contacts"] == {"added": [[0.125, 0.025]], "removed": []}
+
+
 def test_a_running_missions_path_so_far(client: TestClient) -> None:
     mission_id = client.post("/missions", json=SLOW).json()["id"]
     wait_for(client, mission_id, lambda m: m["model_time"] > 3)
