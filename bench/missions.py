@@ -88,6 +88,7 @@ class Row:
     )  # this process's CPU seconds (what a loaded machine disturbs less)
     reason: str = ""
     latencies: list[float] = field(default_factory=list)  # each replan's planning, wall ms
+    worker: int | None = None  # --server: the pid of the worker that ran it
 
     @property
     def ratio(self) -> float:
@@ -388,13 +389,16 @@ POLL_SECONDS = 0.25  # between looks at a served mission (its times are the serv
 CLOCK_TICKS = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
 
 
-def served_row(client: Any, job: Job, cap: float) -> Row:
-    """Post one mission file to the server, wait for its end, read its row from the API."""
+def served_row(client: Any, job: Job, cap: float, last: int | None = None) -> Row:
+    """Post one mission file to the server, wait for its end, read its row from the API.
+    ``last``: the worker pid the previous mission ran on; its CPU is read before the post, so
+    that a mission ending within the first poll is not counted from the poll (it was)."""
     path = Path(job.path)
     spec = load_mission(path)
     status, reason = expected_of(spec)
     row = Row(job.set, spec.name, status + (f":{reason}" if reason else ""), "error")
     body = json.loads(path.read_text())
+    before = cpu_seconds(last)
     created = client.post("/missions", json=body)
     if created.status_code != 201:
         row.status = f"error: POST {created.status_code}"
@@ -407,7 +411,7 @@ def served_row(client: Any, job: Job, cap: float) -> Row:
         mission = client.get(f"/missions/{mission_id}").json()
         if pid is None:
             pid = worker_pid(mission)
-            cpu = cpu_seconds(pid)
+            cpu = before if pid is not None and pid == last else cpu_seconds(pid)
         if mission["status"] in ("succeeded", "failed", "cancelled"):
             row.cpu_time = cpu_seconds(pid) - cpu
             break
@@ -419,6 +423,7 @@ def served_row(client: Any, job: Job, cap: float) -> Row:
     at = {t["status"]: datetime.fromisoformat(t["at"]) for t in mission["transitions"]}
     row.wall_time = (at[mission["status"]] - at["planning"]).total_seconds()
     row.status, row.reason = mission["status"], mission["reason"]
+    row.worker = pid
     row.model_time = mission["model_time"]
     row.goals = len(mission["goals"])
     row.reached = sum(g["reached"] for g in mission["goals"])
@@ -460,9 +465,11 @@ def run_served(jobs: list[Job], cap: float) -> list[Row]:
             with httpx.Client(base_url=base, timeout=60) as client:
                 wait_ready(client.get)
                 server_cpu = cpu_seconds(proc.pid)
+                last: int | None = None  # the one mission worker's pid, once known
                 for job in jobs:
                     try:
-                        row = served_row(client, job, cap)
+                        row = served_row(client, job, cap, last)
+                        last = row.worker or last
                     except Exception as exc:  # a row, never the bench's end
                         row = Row(job.set, Path(job.path).stem, "?", f"error: {exc}"[:200])
                     rows.append(row)
