@@ -13,9 +13,11 @@ import pytest
 from domain.navigation import NavigationSettings, Planner
 from domain.navigation.lattice.costs import (
     CostInputs,
+    cell_centre,
     flat_cells,
     kernel_table,
     lethal_part,
+    motion_slack,
     risk_part,
     start_costs,
     state_costs,
@@ -161,6 +163,81 @@ def random_inputs(seed: int, settings: NavigationSettings = SETTINGS) -> tuple[C
     return inputs, p
 
 
+def lethal_of(fn, number: int, inputs: CostInputs, kt) -> tuple[int, np.ndarray]:
+    """``lethal_part`` (or its Python form ``fn``) of one state: bits and base costs."""
+    base = np.empty(kt.check_segments.shape[1] - 1)
+    bits = fn(
+        number, inputs.nx, inputs.ny, inputs.values, inputs.geo, kt.open_need, kt.check_unique,
+        kt.check_unique_counts, kt.check_cells, kt.check_needs, kt.check_fails,
+        kt.check_points, kt.grouped, kt.check_segments, kt.deltas, kt.cell_reach, kt.lengths,
+        kt.lead_lengths, inputs.params, base, np.empty(kt.check_unique.shape[1]),
+    )  # fmt: skip
+    return int(bits), base
+
+
+def risk_of(fn, number: int, inputs: CostInputs, kt, risk, blocked, flat) -> np.ndarray:
+    """``risk_part`` (or ``fn``) of one state over the layers ``risk`` and ``blocked``."""
+    extra = np.empty(kt.cell_segments.shape[1] - 1)
+    width = kt.new_unique.shape[1]
+    fn(
+        number, inputs.nx, inputs.ny, risk, blocked, flat, kt.new_unique, kt.new_unique_counts,
+        kt.blind_segments, kt.blind_cells, kt.seen_segments, kt.seen_cells, kt.cell_counts,
+        inputs.params, extra, np.empty(width), np.empty(width),
+    )  # fmt: skip
+    return extra
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_each_motion_reads_what_its_own_cells_hold(seed: int) -> None:
+    """A state's evaluation reads each of its bin's distinct cells once for all its motions;
+    it gives, bit for bit, what each motion gives read on its own: validity and slack from
+    its own checks' cells (``motion_slack``; off the grid, invalid), risk summed over its own
+    new cells in its order (off the grid, nothing), in the open, near obstacles, over the
+    evidence and at the arena's edge."""
+    inputs, p = random_inputs(seed)
+    kt = kernel_table(STRAIGHT, SETTINGS.margin)
+    radius, decay, penalty, contact, block, reverse = inputs.params
+    nx, ny, plane = inputs.nx, inputs.ny, inputs.nx * inputs.ny
+    rng = np.random.default_rng(200 + seed)
+    numbers = rng.integers(0, p.grid.size, 300).tolist()
+    numbers += [p.grid.encode((0, 0, 0)), p.grid.encode((nx - 1, 5, 17))]
+    no_flat = np.zeros_like(inputs.flat)
+    kinds = set()
+    for number in numbers:
+        k, cell = divmod(number, plane)
+        i, j = divmod(cell, ny)
+        cx, cy = cell_centre(inputs.geo, i, j)
+        bits, base = lethal_of(lethal_part, number, inputs, kt)
+        extra = risk_of(risk_part, number, inputs, kt, inputs.risk, inputs.blocked, no_flat)
+        open_space = inputs.values[i, j] >= kt.open_need + radius
+        for m in range(len(STRAIGHT.motions)):
+            di, dj = kt.deltas[k, m, :2]
+            on_grid = 0 <= i + di < nx and 0 <= j + dj < ny
+            slack = math.inf if open_space else motion_slack(
+                k, m, i, j, cx, cy, nx, ny, inputs.values, inputs.geo, kt.checks,
+                kt.check_needs, kt.check_fails, kt.check_points, kt.grouped, kt.check_segments,
+            )  # fmt: skip
+            valid = on_grid and slack >= 0.0
+            kinds.add(valid)
+            assert bool((bits >> m) & 1) == valid
+            if valid:
+                close = math.exp(-slack / decay) if slack < radius else 0.0
+                want = kt.lengths[m] * (1.0 + penalty * close) + reverse * kt.lead_lengths[m]
+                assert base[m] == want
+            else:
+                assert base[m] == math.inf
+            unseen = seen = 0.0
+            for c in range(kt.cell_segments[k, m], kt.cell_segments[k, m + 1]):
+                ci, cj, blind = (int(v) for v in kt.cells[k, c])
+                if 0 <= i + ci < nx and 0 <= j + cj < ny:
+                    if blind:
+                        unseen += inputs.risk[i + ci, j + cj]
+                    else:
+                        seen += inputs.blocked[i + ci, j + cj]
+            assert extra[m] == -contact * unseen - block * seen
+    assert kinds == {True, False}
+
+
 @pytest.mark.parametrize("seed", [0, 1, 2])
 def test_the_compiled_cost_evaluation_equals_its_python_form(seed: int) -> None:
     """``lethal_part`` and ``risk_part`` run as Python (numba's ``py_func``, as without numba)
@@ -178,25 +255,13 @@ def test_the_compiled_cost_evaluation_equals_its_python_form(seed: int) -> None:
     for number in numbers:
         outs = []
         for fn in (lethal_part, lethal_part.py_func):
-            base = np.empty(n)
-            bits = fn(
-                number, inputs.nx, inputs.ny, inputs.values, inputs.geo, kt.open_need,
-                kt.checks, kt.check_needs, kt.check_fails, kt.check_points, kt.grouped,
-                kt.check_segments, kt.deltas, kt.cell_reach, kt.lengths, kt.lead_lengths,
-                inputs.params, base,
-            )  # fmt: skip
-            outs.append((int(bits), base))
+            outs.append(lethal_of(fn, number, inputs, kt))
         assert outs[0][0] == outs[1][0]
         np.testing.assert_array_equal(outs[0][1], outs[1][1])
         seen_bits.add(outs[0][0] == (1 << n) - 1)
         extras = []
         for fn in (risk_part, risk_part.py_func):
-            extra = np.empty(n)
-            fn(
-                number, inputs.nx, inputs.ny, inputs.risk, inputs.blocked, inputs.flat,
-                kt.cells, kt.cell_segments, kt.cell_counts, inputs.params, extra,
-            )  # fmt: skip
-            extras.append(extra)
+            extras.append(risk_of(fn, number, inputs, kt, inputs.risk, inputs.blocked, inputs.flat))
         np.testing.assert_array_equal(extras[0], extras[1])
     assert seen_bits == {True, False}  # states with every motion valid, and with some not
 
@@ -237,16 +302,11 @@ def test_a_motions_risk_from_a_flat_cell_is_the_sum_over_its_cells(seed: int) ->
     kt = kernel_table(STRAIGHT, SETTINGS.margin)
     flat = flat_cells(risk, blocked, STRAIGHT.cell_reach_new + 1)
     assert flat.any()
-    n = len(STRAIGHT.motions)
     rng = np.random.default_rng(seed)
     for number in rng.integers(0, p.grid.size, 400).tolist():
         i, j = divmod(number % (inputs.nx * inputs.ny), inputs.ny)
         if not flat[i, j]:
             continue
-        got, full = np.empty(n), np.empty(n)
-        for out, where in ((got, flat), (full, np.zeros_like(flat))):
-            risk_part(
-                number, inputs.nx, inputs.ny, risk, blocked, where, kt.cells,
-                kt.cell_segments, kt.cell_counts, inputs.params, out,
-            )  # fmt: skip
+        got = risk_of(risk_part, number, inputs, kt, risk, blocked, flat)
+        full = risk_of(risk_part, number, inputs, kt, risk, blocked, np.zeros_like(flat))
         np.testing.assert_allclose(got, full, rtol=1e-12, atol=1e-12)

@@ -51,7 +51,14 @@ class KernelTable:
     (``grouped`` ``[K, P, 3]``: x, y, need with the margin; ``check_points``: each cell's
     bounds), each motion's cells (``check_segments``), the motions' cell deltas, lengths and
     new cells (``cells`` ``[K, N, 3]``: di, dj, blind; ``cell_segments``; ``cell_counts``
-    ``[K, M, 2]``: how many of a motion's new cells are blind and how many seen)."""
+    ``[K, M, 2]``: how many of a motion's new cells are blind and how many seen).
+
+    A bin's motions share most of their cells (each sweeps the body from the same start), so
+    the evaluation reads each distinct cell of a bin once: ``check_unique`` ``[K, U, 2]``
+    (``check_unique_counts`` per bin) and ``check_cells`` (per check, its distinct cell); the
+    new cells likewise (``new_unique``, ``new_unique_counts``), each motion's blind ones
+    (``blind_cells`` by ``blind_segments``) apart from its seen ones (``seen_cells``,
+    ``seen_segments``), each in the motion's order, so every sum adds what it added before."""
 
     checks: NDArray[np.int64]
     check_needs: Array
@@ -67,6 +74,15 @@ class KernelTable:
     cell_segments: NDArray[np.int64]
     cell_counts: NDArray[np.int64]
     open_need: float  # centroid clearance beyond which every point keeps its need + margin
+    check_unique: NDArray[np.int64]
+    check_unique_counts: NDArray[np.int64]
+    check_cells: NDArray[np.int64]
+    new_unique: NDArray[np.int64]
+    new_unique_counts: NDArray[np.int64]
+    blind_segments: NDArray[np.int64]
+    blind_cells: NDArray[np.int64]
+    seen_segments: NDArray[np.int64]
+    seen_cells: NDArray[np.int64]
 
     def bin(self, k: int) -> KernelTable:
         """The table of bin ``k`` alone, as bin 0 (views: nothing copied). One state's motions
@@ -86,6 +102,15 @@ class KernelTable:
             cells=self.cells[one],
             cell_segments=self.cell_segments[one],
             cell_counts=self.cell_counts[one],
+            check_unique=self.check_unique[one],
+            check_unique_counts=self.check_unique_counts[one],
+            check_cells=self.check_cells[one],
+            new_unique=self.new_unique[one],
+            new_unique_counts=self.new_unique_counts[one],
+            blind_segments=self.blind_segments[one],
+            blind_cells=self.blind_cells[one],
+            seen_segments=self.seen_segments[one],
+            seen_cells=self.seen_cells[one],
         )
 
 
@@ -128,6 +153,15 @@ def kernel_table(table: MotionTable, margin: float) -> KernelTable:
             blind = table.cells[k][cell_segments[k, m] : cell_segments[k, m + 1], 2]
             n_blind = int(np.count_nonzero(blind))
             cell_counts[k, m] = n_blind, len(blind) - n_blind
+    check_unique, check_unique_counts, check_cells = _distinct(
+        [table.checks[k] for k in range(K)], n_checks
+    )
+    new_unique, new_unique_counts, new_cells = _distinct(
+        [table.cells[k][:, :2] for k in range(K)], n_cells
+    )
+    blind_segments, blind_cells, seen_segments, seen_cells = _blind_and_seen(
+        table, cell_segments, new_cells
+    )
     out = KernelTable(
         checks,
         check_needs,
@@ -143,11 +177,65 @@ def kernel_table(table: MotionTable, margin: float) -> KernelTable:
         cell_segments,
         cell_counts,
         table.open_clearance + table.settings.resolution + margin,
+        check_unique,
+        check_unique_counts,
+        check_cells,
+        new_unique,
+        new_unique_counts,
+        blind_segments,
+        blind_cells,
+        seen_segments,
+        seen_cells,
     )
     if len(_TABLES) >= TABLES_KEPT:
         _TABLES.clear()
     _TABLES[key] = (table, out)
     return out
+
+
+def _distinct(
+    per_bin: list[NDArray[np.int64]], width: int
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """Each bin's distinct cell offsets ``[K, U, 2]`` (padded), how many, and for each of the
+    bin's cells (``[K, width]``, padded) its distinct cell."""
+    found = [np.unique(c.reshape(-1, 2), axis=0, return_inverse=True) for c in per_bin]
+    n_unique = max(1, max(len(u) for u, _ in found))
+    unique = np.zeros((len(per_bin), n_unique, 2), dtype=np.int64)
+    counts = np.zeros(len(per_bin), dtype=np.int64)
+    index = np.zeros((len(per_bin), width), dtype=np.int64)
+    for k, (u, inverse) in enumerate(found):
+        unique[k, : len(u)], counts[k] = u, len(u)
+        index[k, : inverse.size] = inverse.ravel()
+    return unique, counts, index
+
+
+def _blind_and_seen(
+    table: MotionTable, cell_segments: NDArray[np.int64], new_cells: NDArray[np.int64]
+) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """Per bin and motion, its blind new cells' distinct cells and its seen ones', each in
+    the motion's order (``KernelTable``): segments ``[K, M + 1]`` and cells ``[K, B]``."""
+    K, M = cell_segments.shape[0], cell_segments.shape[1] - 1
+    parts: list[tuple[list[int], list[int], list[int], list[int]]] = []
+    for k in range(K):
+        blind_flags = table.cells[k][:, 2] != 0
+        blind: list[int] = []
+        seen: list[int] = []
+        blind_seg, seen_seg = [0], [0]
+        for m in range(M):
+            for c in range(int(cell_segments[k, m]), int(cell_segments[k, m + 1])):
+                (blind if blind_flags[c] else seen).append(int(new_cells[k, c]))
+            blind_seg.append(len(blind))
+            seen_seg.append(len(seen))
+        parts.append((blind, seen, blind_seg, seen_seg))
+    width = max(1, max(max(len(b), len(s)) for b, s, _, _ in parts))
+    blind_cells = np.zeros((K, width), dtype=np.int64)
+    seen_cells = np.zeros((K, width), dtype=np.int64)
+    blind_segments = np.zeros((K, M + 1), dtype=np.int64)
+    seen_segments = np.zeros((K, M + 1), dtype=np.int64)
+    for k, (blind, seen, blind_seg, seen_seg) in enumerate(parts):
+        blind_cells[k, : len(blind)], seen_cells[k, : len(seen)] = blind, seen
+        blind_segments[k], seen_segments[k] = blind_seg, seen_seg
+    return blind_segments, blind_cells, seen_segments, seen_cells
 
 
 def cost_parameters(costs: CostSettings) -> Array:
@@ -194,6 +282,30 @@ def cell_centre(geo: Array, i: int, j: int) -> tuple[float, float]:  # pragma: n
 
 
 @jit
+def points_slack(  # pragma: no cover - compiled
+    k: int,
+    c: int,
+    cx: float,
+    cy: float,
+    values: Array,
+    geo: Array,
+    check_points: Array,
+    grouped: Array,
+) -> float:
+    """The least slack the points of check ``c`` of bin ``k`` keep beyond their need, read
+    exactly between the centres (``lethal_at``; ``geo``: the grid and its walls) from the
+    state's cell centre ``(cx, cy)``: for a clearance at the check's cell that neither passes
+    nor fails all its points (``KernelTable``)."""
+    s = math.inf
+    for q in range(check_points[k, c], check_points[k, c + 1]):
+        x, y = cx + grouped[k, q, 0], cy + grouped[k, q, 1]
+        t = lethal_at(values, geo, x, y) - grouped[k, q, 2]
+        if t < s:
+            s = t
+    return s
+
+
+@jit
 def motion_slack(  # pragma: no cover - compiled
     k: int,
     m: int,
@@ -216,8 +328,7 @@ def motion_slack(  # pragma: no cover - compiled
     bin ``k`` beyond what its points need (a bound, >= 0), or -1 when it is invalid: each of
     its cells read at its centre (``values``: the lethal clearance there); a cell whose
     clearance neither passes nor fails all its points (``KernelTable``) reads its points
-    exactly, between the centres (``lethal_at``; ``geo``: the grid and its walls). A cell off
-    the grid is invalid."""
+    (``points_slack``). A cell off the grid is invalid."""
     slack = math.inf
     for c in range(check_segments[k, m], check_segments[k, m + 1]):
         ci, cj = i + checks[k, c, 0], j + checks[k, c, 1]
@@ -228,13 +339,8 @@ def motion_slack(  # pragma: no cover - compiled
             s = here - check_needs[k, c]  # (a bound: every point keeps at least this)
         elif here < check_fails[k, c]:
             return -1.0
-        else:  # between: the points themselves
-            s = math.inf
-            for q in range(check_points[k, c], check_points[k, c + 1]):
-                x, y = cx + grouped[k, q, 0], cy + grouped[k, q, 1]
-                t = lethal_at(values, geo, x, y) - grouped[k, q, 2]
-                if t < s:
-                    s = t
+        else:
+            s = points_slack(k, c, cx, cy, values, geo, check_points, grouped)
             if not s >= 0.0:
                 return -1.0
         if s < slack:
@@ -250,7 +356,9 @@ def lethal_part(  # pragma: no cover - compiled
     values: Array,
     geo: Array,
     open_need: float,
-    checks: Array,
+    check_unique: Array,
+    check_unique_counts: Array,
+    check_cells: Array,
     check_needs: Array,
     check_fails: Array,
     check_points: Array,
@@ -262,13 +370,15 @@ def lethal_part(  # pragma: no cover - compiled
     lead_lengths: Array,
     params: Array,
     base: Array,
+    at_cells: Array,
 ) -> int:
     """The valid motions of state ``number`` as a bitmask (bit ``m``: motion ``m``), and into
     ``base`` each valid motion's length and closeness cost (``inf`` for the others): what the
-    lethal layer alone decides (``motion_slack``). ``open_need``: the centroid clearance past
-    which every point of every motion keeps its need and more than the inflation radius (open
-    space: nothing is read); ``params``: ``cost_parameters``. A motion reaching off the grid is
-    invalid."""
+    lethal layer alone decides (``motion_slack``, each of the bin's distinct cells read once
+    into ``at_cells``, ``-inf`` off the grid: a motion over one is invalid). ``open_need``:
+    the centroid clearance past which every point of every motion keeps its need and more
+    than the inflation radius (open space: nothing is read); ``params``:
+    ``cost_parameters``. A motion reaching off the grid is invalid."""
     plane = nx * ny
     k, cell = number // plane, number % plane
     i, j = cell // ny, cell % ny
@@ -278,6 +388,11 @@ def lethal_part(  # pragma: no cover - compiled
     open_space = values[i, j] >= open_need + radius
     reach = cell_reach[k]
     edge = not (reach <= i < nx - reach and reach <= j < ny - reach)
+    if not open_space:
+        for u in range(check_unique_counts[k]):
+            ci, cj = i + check_unique[k, u, 0], j + check_unique[k, u, 1]
+            inside = 0 <= ci < nx and 0 <= cj < ny
+            at_cells[u] = values[ci, cj] if inside else -math.inf
     bits = 0
     for m in range(n_motions):
         base[m] = math.inf
@@ -286,11 +401,26 @@ def lethal_part(  # pragma: no cover - compiled
             if not (0 <= ni < nx and 0 <= nj < ny):
                 continue
         slack = math.inf
-        if not open_space:
-            slack = motion_slack(
-                k, m, i, j, cx, cy, nx, ny, values, geo, checks, check_needs, check_fails,
-                check_points, grouped, check_segments,
-            )  # fmt: skip
+        if not open_space:  # (motion_slack's test, on the cells read once)
+            for c in range(check_segments[k, m], check_segments[k, m + 1]):
+                here = at_cells[check_cells[k, c]]
+                if here >= check_needs[k, c]:
+                    s = here - check_needs[k, c]
+                elif here < check_fails[k, c]:
+                    slack = -1.0
+                    break
+                else:  # (``points_slack``, inline: a compiled call costs more than its work)
+                    s = math.inf
+                    for q in range(check_points[k, c], check_points[k, c + 1]):
+                        x, y = cx + grouped[k, q, 0], cy + grouped[k, q, 1]
+                        t = lethal_at(values, geo, x, y) - grouped[k, q, 2]
+                        if t < s:
+                            s = t
+                    if not s >= 0.0:
+                        slack = -1.0
+                        break
+                if s < slack:
+                    slack = s
             if slack < 0.0:
                 continue
         bits |= 1 << m
@@ -307,38 +437,49 @@ def risk_part(  # pragma: no cover - compiled
     risk: Array,
     blocked: Array,
     flat: Array,
-    cells: Array,
-    cell_segments: Array,
+    new_unique: Array,
+    new_unique_counts: Array,
+    blind_segments: Array,
+    blind_cells: Array,
+    seen_segments: Array,
+    seen_cells: Array,
     cell_counts: Array,
     params: Array,
     extra: Array,
+    at_risk: Array,
+    at_blocked: Array,
 ) -> None:
     """Into ``extra``, what each motion of state ``number`` risks, valid or not: ``contact
     cost`` times the contacts expected over its blind new cells (``risk``: log P(free) per
     cell; a cell's -log P(free) is the obstacles expected in it, as a Poisson count) and
-    ``blocked cost`` times those expected over the cells the head sees first (``blocked``).
-    From a cell where ``flat`` holds (``flat_cells``: both alike over every motion's reach),
-    the sums are the cell's own values times the motions' cell counts."""
+    ``blocked cost`` times those expected over the cells the head sees first (``blocked``);
+    each of the bin's distinct new cells read once into ``at_risk`` and ``at_blocked`` (0 off
+    the grid: nothing is expected there). From a cell where ``flat`` holds (``flat_cells``:
+    both alike over every motion's reach), the sums are the cell's own values times the
+    motions' cell counts."""
     plane = nx * ny
     k, cell = number // plane, number % plane
     i, j = cell // ny, cell % ny
-    n_motions = cell_segments.shape[1] - 1
+    n_motions = blind_segments.shape[1] - 1
     contact, block = params[3], params[4]
     if flat[i, j]:
         r, b = risk[i, j], blocked[i, j]
         for m in range(n_motions):
             extra[m] = -contact * (r * cell_counts[k, m, 0]) - block * (b * cell_counts[k, m, 1])
         return
+    for u in range(new_unique_counts[k]):
+        ci, cj = i + new_unique[k, u, 0], j + new_unique[k, u, 1]
+        if 0 <= ci < nx and 0 <= cj < ny:
+            at_risk[u], at_blocked[u] = risk[ci, cj], blocked[ci, cj]
+        else:
+            at_risk[u], at_blocked[u] = 0.0, 0.0
     for m in range(n_motions):
         unseen = 0.0  # log P(free) of the blind new cells
+        for c in range(blind_segments[k, m], blind_segments[k, m + 1]):
+            unseen += at_risk[blind_cells[k, c]]
         seen = 0.0  # ... and of those the head sees first
-        for c in range(cell_segments[k, m], cell_segments[k, m + 1]):
-            ci, cj = i + cells[k, c, 0], j + cells[k, c, 1]
-            if 0 <= ci < nx and 0 <= cj < ny:
-                if cells[k, c, 2]:
-                    unseen += risk[ci, cj]
-                else:
-                    seen += blocked[ci, cj]
+        for c in range(seen_segments[k, m], seen_segments[k, m + 1]):
+            seen += at_blocked[seen_cells[k, c]]
         extra[m] = -contact * unseen - block * seen  # (metres per expected contact or block)
 
 
@@ -372,9 +513,10 @@ def lethal_costs(
     """``lethal_part`` of one state from Python: its valid motions' bitmask and base costs."""
     base = np.empty(kt.check_segments.shape[1] - 1)
     bits = lethal_part(
-        number, inputs.nx, inputs.ny, inputs.values, inputs.geo, kt.open_need, kt.checks,
-        kt.check_needs, kt.check_fails, kt.check_points, kt.grouped, kt.check_segments,
-        kt.deltas, kt.cell_reach, kt.lengths, kt.lead_lengths, inputs.params, base,
+        number, inputs.nx, inputs.ny, inputs.values, inputs.geo, kt.open_need, kt.check_unique,
+        kt.check_unique_counts, kt.check_cells, kt.check_needs, kt.check_fails,
+        kt.check_points, kt.grouped, kt.check_segments, kt.deltas, kt.cell_reach, kt.lengths,
+        kt.lead_lengths, inputs.params, base, np.empty(kt.check_unique.shape[1]),
     )  # fmt: skip
     return int(bits), base
 
@@ -382,9 +524,11 @@ def lethal_costs(
 def risk_costs(number: int, inputs: CostInputs, kt: KernelTable) -> NDArray[np.float64]:
     """``risk_part`` of one state from Python."""
     extra = np.empty(kt.cell_segments.shape[1] - 1)
+    width = kt.new_unique.shape[1]
     risk_part(
-        number, inputs.nx, inputs.ny, inputs.risk, inputs.blocked, inputs.flat, kt.cells,
-        kt.cell_segments, kt.cell_counts, inputs.params, extra,
+        number, inputs.nx, inputs.ny, inputs.risk, inputs.blocked, inputs.flat, kt.new_unique,
+        kt.new_unique_counts, kt.blind_segments, kt.blind_cells, kt.seen_segments,
+        kt.seen_cells, kt.cell_counts, inputs.params, extra, np.empty(width), np.empty(width),
     )  # fmt: skip
     return extra
 

@@ -333,7 +333,8 @@ def way_at(  # pragma: no cover - compiled
 ) -> float:
     """``way_of(values.reshape(nx, ny))[i, j]``, from the cell's neighbours alone: numpy's
     gradient (central differences inside, one-sided at the edges) and arctan2, the same
-    operations on the same floats."""
+    operations on the same floats (numpy's arctan2 over a whole array may take SIMD code that
+    rounds one unit in the last place the other way)."""
     gx = gy = 0.0
     if nx > 1:
         if i == 0:

@@ -151,10 +151,11 @@ def search(task: LatticeTask, heuristic: CostHeuristic, weight: float, budget: i
             status = _run(
                 CHUNK, budget, weight, start, start_bits, start_costs, near_states, dims,
                 inputs.values, inputs.geo, inputs.risk, inputs.blocked, inputs.flat,
-                kt.open_need, inputs.params, kt.checks, kt.check_needs, kt.check_fails,
-                kt.check_points, kt.grouped, kt.check_segments, kt.deltas, kt.cell_reach,
-                kt.lengths, kt.lead_lengths, kt.cells,
-                kt.cell_segments, kt.cell_counts, task.motion_targets,
+                kt.open_need, inputs.params, kt.check_unique, kt.check_unique_counts,
+                kt.check_cells, kt.check_needs, kt.check_fails, kt.check_points, kt.grouped,
+                kt.check_segments, kt.deltas, kt.cell_reach, kt.lengths, kt.lead_lengths,
+                kt.new_unique, kt.new_unique_counts, kt.blind_segments, kt.blind_cells,
+                kt.seen_segments, kt.seen_cells, kt.cell_counts, task.motion_targets,
                 heuristic.dims, heuristic.hf, heuristic.values, heuristic.risk,
                 lethal.index.keys, lethal.index.values, lethal.index.size, lethal.ints,
                 lethal.floats, lethal.used, risky.index.keys, risky.index.values,
@@ -245,10 +246,12 @@ def _run(  # pragma: no cover - compiled
     chunk: int, budget: int, weight: float, start: int, start_bits: int, start_costs: Array,
     near_states: NDArray[np.int64], dims: NDArray[np.int64], values: Array, geo: Array,
     risk: Array, blocked: Array, flat: Array, open_need: float, params: Array,
-    checks: Array, check_needs: Array, check_fails: Array, check_points: Array,
+    check_unique: Array, check_unique_counts: Array, check_cells: Array,
+    check_needs: Array, check_fails: Array, check_points: Array,
     grouped: Array, check_segments: Array, deltas: Array, cell_reach: Array,
-    lengths: Array, lead_lengths: Array, cells: Array,
-    cell_segments: Array, cell_counts: Array, targets: Array,
+    lengths: Array, lead_lengths: Array, new_unique: Array, new_unique_counts: Array,
+    blind_segments: Array, blind_cells: Array, seen_segments: Array, seen_cells: Array,
+    cell_counts: Array, targets: Array,
     h_dims: NDArray[np.int64], h_f: Array, h_values: Array, h_risk: Array,
     lk: Array, lv: Array, ls: Array, lethal_bits: Array, lethal_base: Array, lethal_used: Array,
     rk: Array, rv: Array, rs: Array, risk_extra: Array, risk_used: Array,
@@ -266,6 +269,9 @@ def _run(  # pragma: no cover - compiled
     here_costs = np.empty(n_motions)
     base = np.empty(n_motions)
     extra = np.empty(n_motions)
+    at_cells = np.empty(check_unique.shape[1])  # (the evaluations' scratch)
+    at_risk = np.empty(new_unique.shape[1])
+    at_blocked = np.empty(new_unique.shape[1])
     if count[NODES] == 0:
         h = state_heuristic(start, h_dims, h_f, h_values, h_risk)
         node_state[0], node_parent[0], node_g[0], node_op[0], node_h[0] = start, -1, 0.0, -2, h
@@ -315,9 +321,9 @@ def _run(  # pragma: no cover - compiled
                     base[m] = lethal_base[row, m]
             else:
                 bits = lethal_part(
-                    state, nx, ny, values, geo, open_need, checks, check_needs, check_fails,
-                    check_points, grouped, check_segments, deltas, cell_reach, lengths, lead_lengths,
-                    params, base,
+                    state, nx, ny, values, geo, open_need, check_unique, check_unique_counts,
+                    check_cells, check_needs, check_fails, check_points, grouped, check_segments,
+                    deltas, cell_reach, lengths, lead_lengths, params, base, at_cells,
                 )  # fmt: skip
                 row = lethal_used[0]
                 lethal_bits[row] = bits
@@ -332,8 +338,9 @@ def _run(  # pragma: no cover - compiled
                     extra[m] = risk_extra[row, m]
             else:
                 risk_part(
-                    state, nx, ny, risk, blocked, flat, cells, cell_segments, cell_counts,
-                    params, extra,
+                    state, nx, ny, risk, blocked, flat, new_unique, new_unique_counts,
+                    blind_segments, blind_cells, seen_segments, seen_cells, cell_counts, params,
+                    extra, at_risk, at_blocked,
                 )  # fmt: skip
                 row = risk_used[0]
                 for m in range(n_motions):

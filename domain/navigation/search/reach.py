@@ -114,9 +114,10 @@ class _Forward(_Walk):
         task, kt, inputs, h = self.task, self.task.kt, self.task.inputs, self.heuristic
         status: int = _walk(
             CHUNK, self.states, task.start_number, self.start_bits, self.near, self.dims,
-            inputs.values, inputs.geo, kt.open_need, inputs.params, kt.checks, kt.check_needs,
-            kt.check_fails, kt.check_points, kt.grouped, kt.check_segments, kt.deltas,
-            kt.cell_reach, kt.lengths, kt.lead_lengths, task.motion_targets, h.dims, h.hf,
+            inputs.values, inputs.geo, kt.open_need, inputs.params, kt.check_unique,
+            kt.check_unique_counts, kt.check_cells, kt.check_needs, kt.check_fails,
+            kt.check_points, kt.grouped, kt.check_segments, kt.deltas, kt.cell_reach,
+            kt.lengths, kt.lead_lengths, task.motion_targets, h.dims, h.hf,
             h.values, h.risk, self.seen, self.heap_h, self.heap_s, self.count,
         )  # fmt: skip
         return status
@@ -277,7 +278,8 @@ def _pop(h: Array, s: NDArray[np.int64], size: int) -> int:  # pragma: no cover 
 def _walk(  # pragma: no cover - compiled
     chunk: int, limit: int, start: int, start_bits: int, near: NDArray[np.int64],
     dims: NDArray[np.int64], values: Array, geo: Array, open_need: float, params: Array,
-    checks: Array, check_needs: Array, check_fails: Array, check_points: Array,
+    check_unique: Array, check_unique_counts: Array, check_cells: Array,
+    check_needs: Array, check_fails: Array, check_points: Array,
     grouped: Array, check_segments: Array, deltas: Array, cell_reach: Array, lengths: Array,
     lead_lengths: Array, targets: Array, h_dims: NDArray[np.int64], h_f: Array, h_values: Array,
     h_risk: Array, seen: NDArray[np.bool_],
@@ -288,6 +290,7 @@ def _walk(  # pragma: no cover - compiled
     plane = nx * ny
     n_motions = check_segments.shape[1] - 1
     base = np.empty(n_motions)
+    at_cells = np.empty(check_unique.shape[1])
     if count[2] == 0:
         count[2] = 1
         seen[start] = True
@@ -308,9 +311,9 @@ def _walk(  # pragma: no cover - compiled
             bits = start_bits
         else:
             bits = lethal_part(
-                state, nx, ny, values, geo, open_need, checks, check_needs, check_fails,
-                check_points, grouped, check_segments, deltas, cell_reach, lengths, lead_lengths,
-                params, base,
+                state, nx, ny, values, geo, open_need, check_unique, check_unique_counts,
+                check_cells, check_needs, check_fails, check_points, grouped, check_segments,
+                deltas, cell_reach, lengths, lead_lengths, params, base, at_cells,
             )  # fmt: skip
         k, cell = state // plane, state % plane
         for m in range(n_motions):
