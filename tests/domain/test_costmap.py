@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from domain.world import CostmapSettings, RangeObservation, WorldModel, range_observations
+from domain.world import CostmapSettings, RangeObservation, WorldModel, range_observations, static
 from domain.world.contact import touched_side
 from sim.obstacles import Circle, Obstacle, Polygon, point_segment_distance, rectangle, unit_vectors
 from sim.robot import head_tip
@@ -119,6 +119,30 @@ def test_static_clearance_is_exact_at_cell_centres():
     assert np.array_equal(
         model.occupied(), exact_clearance(Bounds(-9, 9, -9, 9), known, centres) < RES / 2 - 1e-9
     )
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_polygons_distances_compiled_are_its_numpy_paths(seed: int, monkeypatch):
+    """The static layer's distances to a polygon, convex or not, tilted or not, are the same
+    floats from the compiled call and from numpy (each the sim's geometry to 1e-12)."""
+    rng = np.random.default_rng(seed)
+    xs = np.sort(rng.uniform(-3.0, 3.0, 47))
+    ys = np.sort(rng.uniform(-3.0, 3.0, 31))
+    for n in (3, 4, 7, 11):
+        angles = np.sort(rng.uniform(0.0, 2 * np.pi, n))
+        radii = rng.uniform(0.2, 2.0, n)  # uneven radii: most of these are not convex
+        vertices = np.stack([radii * np.cos(angles), radii * np.sin(angles)], axis=-1)
+        polygon = Polygon(tuple(map(tuple, vertices + rng.uniform(-1, 1, 2))))
+        ea, eb = (np.ascontiguousarray(e, dtype=float) for e in polygon.edges)
+        got = static.polygon_distances(xs, ys, ea, eb)
+        with monkeypatch.context() as m:
+            m.setattr(static, "AVAILABLE", False)
+            want = static.polygon_distances(xs, ys, ea, eb)
+        assert np.array_equal(got, want)
+        points = np.stack(np.meshgrid(xs, ys, indexing="ij"), axis=-1).reshape(-1, 2)
+        exact = polygon.segment_clearance(points, points).reshape(got.shape)
+        np.testing.assert_allclose(got, exact, atol=1e-12)
+        assert (got == 0).any() and (got > 0).any()
 
 
 @pytest.mark.parametrize("shift", [0.0, 0.01, 0.025, 0.037])

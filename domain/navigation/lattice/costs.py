@@ -198,15 +198,23 @@ def _distinct(
 ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
     """Each bin's distinct cell offsets ``[K, U, 2]`` (padded), how many, and for each of the
     bin's cells (``[K, width]``, padded) its distinct cell."""
-    found = [np.unique(c.reshape(-1, 2), axis=0, return_inverse=True) for c in per_bin]
+    found = []
+    for cells in per_bin:
+        cells = cells.reshape(-1, 2)
+        low = cells.min(axis=0, initial=0)
+        span = int(cells[:, 1].max(initial=0) - low[1]) + 1
+        codes = (cells[:, 0] - low[0]) * span + (cells[:, 1] - low[1])  # one int per offset
+        unique, inverse = np.unique(codes, return_inverse=True)
+        offsets = np.stack([unique // span + low[0], unique % span + low[1]], axis=-1)
+        found.append((offsets, inverse))
     n_unique = max(1, max(len(u) for u, _ in found))
-    unique = np.zeros((len(per_bin), n_unique, 2), dtype=np.int64)
+    unique_cells = np.zeros((len(per_bin), n_unique, 2), dtype=np.int64)
     counts = np.zeros(len(per_bin), dtype=np.int64)
     index = np.zeros((len(per_bin), width), dtype=np.int64)
     for k, (u, inverse) in enumerate(found):
-        unique[k, : len(u)], counts[k] = u, len(u)
+        unique_cells[k, : len(u)], counts[k] = u, len(u)
         index[k, : inverse.size] = inverse.ravel()
-    return unique, counts, index
+    return unique_cells, counts, index
 
 
 def _blind_and_seen(
@@ -215,27 +223,26 @@ def _blind_and_seen(
     """Per bin and motion, its blind new cells' distinct cells and its seen ones', each in
     the motion's order (``KernelTable``): segments ``[K, M + 1]`` and cells ``[K, B]``."""
     K, M = cell_segments.shape[0], cell_segments.shape[1] - 1
-    parts: list[tuple[list[int], list[int], list[int], list[int]]] = []
+    parts = []
     for k in range(K):
-        blind_flags = table.cells[k][:, 2] != 0
-        blind: list[int] = []
-        seen: list[int] = []
-        blind_seg, seen_seg = [0], [0]
-        for m in range(M):
-            for c in range(int(cell_segments[k, m]), int(cell_segments[k, m + 1])):
-                (blind if blind_flags[c] else seen).append(int(new_cells[k, c]))
-            blind_seg.append(len(blind))
-            seen_seg.append(len(seen))
-        parts.append((blind, seen, blind_seg, seen_seg))
-    width = max(1, max(max(len(b), len(s)) for b, s, _, _ in parts))
-    blind_cells = np.zeros((K, width), dtype=np.int64)
-    seen_cells = np.zeros((K, width), dtype=np.int64)
-    blind_segments = np.zeros((K, M + 1), dtype=np.int64)
-    seen_segments = np.zeros((K, M + 1), dtype=np.int64)
-    for k, (blind, seen, blind_seg, seen_seg) in enumerate(parts):
-        blind_cells[k, : len(blind)], seen_cells[k, : len(seen)] = blind, seen
-        blind_segments[k], seen_segments[k] = blind_seg, seen_seg
-    return blind_segments, blind_cells, seen_segments, seen_cells
+        blind = table.cells[k][:, 2] != 0
+        motion = np.repeat(np.arange(M), np.diff(cell_segments[k]))  # each cell's motion
+        row = []
+        for which in (blind, ~blind):  # (a motion's cells are contiguous: order is kept)
+            per_motion = np.bincount(motion[which], minlength=M)
+            segments = np.concatenate([[0], np.cumsum(per_motion)])
+            row.append((segments, new_cells[k, : blind.size][which]))
+        parts.append(row)
+    width = max(1, max(len(cells) for row in parts for _, cells in row))
+    out = []
+    for side in (0, 1):
+        segments = np.zeros((K, M + 1), dtype=np.int64)
+        cells = np.zeros((K, width), dtype=np.int64)
+        for k, row in enumerate(parts):
+            segments[k], found = row[side]
+            cells[k, : len(found)] = found
+        out += [segments, cells]
+    return out[0], out[1], out[2], out[3]
 
 
 def cost_parameters(costs: CostSettings) -> Array:
