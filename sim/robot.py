@@ -143,10 +143,23 @@ def body_twist(
     (``None`` is the paper-compatible quasi-static mode). The world velocity is R(ψ)·(vx, vy).
     """
     a, s = _pair_arms(phi, geometry)
-    rhs = -geometry.screw_radius * np.sin(geometry.alpha) * theta
+    rhs = screw_rhs(theta, geometry)
     if dphi is not None:
         rhs = rhs - (_joint_rates(s, phi.shape[:-1], geometry) @ dphi[..., None])[..., 0]
     return least_squares(_columns(a, s, geometry), rhs, geometry.rcond)
+
+
+def screw_rhs(theta: Array, geometry: RobotGeometry = DEFAULT_GEOMETRY) -> Array:
+    """``B·u``: what the screw speeds ``theta`` ``[..., 4]`` drive (the right-hand side)."""
+    out: Array = -geometry.screw_radius * np.sin(geometry.alpha) * theta
+    return out
+
+
+def shape_solver(phi: Array, geometry: RobotGeometry = DEFAULT_GEOMETRY) -> NormalSolver:
+    """The quasi-static ``body_twist`` of shapes ``phi`` for any screw speeds:
+    ``shape_solver(phi).solve(screw_rhs(theta))`` is ``body_twist(theta, phi)``, float for
+    float."""
+    return NormalSolver(constraint_columns(phi, geometry), geometry.rcond)
 
 
 # Below this det(AᵀA)/(tr(AᵀA)/3)³ the normal equations lose digits; such shapes take the SVD.
@@ -167,31 +180,50 @@ def least_squares(columns: tuple[Array, Array, Array], b: Array, rcond: float) -
     vectorises far better than thousands of tiny matmuls or SVDs; the rest go through ``pinv``
     with the relative cut-off ``rcond``.
     """
-    c0, c1, c2 = columns
-    m00, m11, m22 = _dot(c0, c0), _dot(c1, c1), _dot(c2, c2)
-    m01, m02, m12 = _dot(c0, c1), _dot(c0, c2), _dot(c1, c2)
-    r0, r1, r2 = _dot(c0, b), _dot(c1, b), _dot(c2, b)
-    # Adjugate of the symmetric matrix M = AᵀA.
-    i00, i11, i22 = m11 * m22 - m12 * m12, m00 * m22 - m02 * m02, m00 * m11 - m01 * m01
-    i01, i02, i12 = m02 * m12 - m01 * m22, m01 * m12 - m02 * m11, m01 * m02 - m00 * m12
-    det = m00 * i00 + m01 * i01 + m02 * i02
-    scale = (m00 + m11 + m22) / 3.0
-    good = det > WELL_CONDITIONED * scale**3
-    inv_det = 1.0 / np.where(good, det, 1.0)
-    x: Array = np.stack(
-        [
-            (i00 * r0 + i01 * r1 + i02 * r2) * inv_det,
-            (i01 * r0 + i11 * r1 + i12 * r2) * inv_det,
-            (i02 * r0 + i12 * r1 + i22 * r2) * inv_det,
-        ],
-        axis=-1,
-    )
-    if not np.all(good):
-        bad = ~good
-        a = np.stack([np.broadcast_to(c, b.shape)[bad] for c in columns], axis=-1)
-        pinv = np.linalg.pinv(a, rtol=rcond)
-        x[bad] = (pinv @ b[bad][..., None])[..., 0]
-    return x
+    return NormalSolver(columns, rcond).solve(b)
+
+
+class NormalSolver:
+    """``least_squares`` of fixed columns, for any right-hand side: the normal equations'
+    adjugate and determinant made once (``solve`` then does what ``least_squares`` does after
+    them, the same operations: the same floats). A body holding its shape moves under many
+    screw speeds with one ``A``."""
+
+    def __init__(self, columns: tuple[Array, Array, Array], rcond: float) -> None:
+        self.columns, self.rcond = columns, rcond
+        c0, c1, c2 = columns
+        m00, m11, m22 = _dot(c0, c0), _dot(c1, c1), _dot(c2, c2)
+        m01, m02, m12 = _dot(c0, c1), _dot(c0, c2), _dot(c1, c2)
+        # Adjugate of the symmetric matrix M = AᵀA.
+        i00, i11, i22 = m11 * m22 - m12 * m12, m00 * m22 - m02 * m02, m00 * m11 - m01 * m01
+        i01, i02, i12 = m02 * m12 - m01 * m22, m01 * m12 - m02 * m11, m01 * m02 - m00 * m12
+        self.adjugate = (i00, i01, i02, i11, i12, i22)
+        det = m00 * i00 + m01 * i01 + m02 * i02
+        scale = (m00 + m11 + m22) / 3.0
+        self.good = det > WELL_CONDITIONED * scale**3
+        self.inv_det = 1.0 / np.where(self.good, det, 1.0)
+        self.all_good = bool(np.all(self.good))
+
+    def solve(self, b: Array) -> Array:
+        """The solutions for the right-hand sides ``b`` ``[..., 4]``."""
+        c0, c1, c2 = self.columns
+        i00, i01, i02, i11, i12, i22 = self.adjugate
+        inv_det = self.inv_det
+        r0, r1, r2 = _dot(c0, b), _dot(c1, b), _dot(c2, b)
+        x: Array = np.stack(
+            [
+                (i00 * r0 + i01 * r1 + i02 * r2) * inv_det,
+                (i01 * r0 + i11 * r1 + i12 * r2) * inv_det,
+                (i02 * r0 + i12 * r1 + i22 * r2) * inv_det,
+            ],
+            axis=-1,
+        )
+        if not self.all_good:
+            bad = ~self.good
+            a = np.stack([np.broadcast_to(c, b.shape)[bad] for c in self.columns], axis=-1)
+            pinv = np.linalg.pinv(a, rtol=self.rcond)
+            x[bad] = (pinv @ b[bad][..., None])[..., 0]
+        return x
 
 
 def rotate(vectors: Array, angle: Array) -> Array:

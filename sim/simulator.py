@@ -18,9 +18,12 @@ from sim.events import Deformation, Event, SensorDropout
 from sim.robot import (
     DEFAULT_GEOMETRY,
     Array,
+    NormalSolver,
     RobotGeometry,
     body_chain,
     body_twist,
+    screw_rhs,
+    shape_solver,
 )
 from sim.rollout import JOINT_MODES, JointMode
 from sim.sensors import SensorReadings, SensorSuite
@@ -86,6 +89,7 @@ class Simulator:
         self.joints = clamp_joints(j, self.geometry)[0]
         self.forced: Array | None = None
         self._twists: dict[bytes, Array] = {}  # body_twist by screw speeds and shape
+        self._solvers: dict[bytes, NormalSolver] = {}  # its solver by shape (the shape is held)
         self._bodies: list[tuple[bytes, Array]] = []
         self.dropouts: list[SensorDropout] = []
         self.pending = list(self.events)
@@ -193,7 +197,8 @@ class Simulator:
     def _twist(self, theta: Array, phi: Array, dphi: Array | None) -> Array:
         """``body_twist``, remembered for the screw speeds and shapes met so far (at most
         ``TWISTS_KEPT``): a primitive holds both for many steps, and a plan runs the same
-        library primitives again and again (the same inputs give the same twist)."""
+        library primitives again and again (the same inputs give the same twist); new screw
+        speeds under a shape met before (steering holds the shape) reuse its solver."""
         if dphi is not None:
             return body_twist(theta, phi, dphi, self.geometry)
         key = theta.tobytes() + phi.tobytes()
@@ -201,7 +206,13 @@ class Simulator:
         if twist is None:
             if len(self._twists) >= TWISTS_KEPT:
                 self._twists.clear()
-            twist = self._twists[key] = body_twist(theta, phi, None, self.geometry)
+            shape = phi.tobytes()
+            solver = self._solvers.get(shape)
+            if solver is None:
+                if len(self._solvers) >= TWISTS_KEPT:
+                    self._solvers.clear()
+                solver = self._solvers[shape] = shape_solver(phi, self.geometry)
+            twist = self._twists[key] = solver.solve(screw_rhs(theta, self.geometry))
             twist.flags.writeable = False  # shared by every step that meets these inputs
         return twist
 

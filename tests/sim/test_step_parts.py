@@ -68,3 +68,16 @@ def test_remembered_twists_are_body_twist() -> None:
     for k in range(60):  # each pair met again and again, in a shuffled order
         theta, phi = pairs[int(rng.integers(len(pairs)))] if k >= 6 else pairs[k]
         np.testing.assert_array_equal(sim._twist(theta, phi, None), body_twist(theta, phi))
+
+
+def test_a_held_shape_under_new_screw_speeds_moves_as_body_twist_says() -> None:
+    """Steering changes the screw speeds under a shape it holds: the simulator reuses the
+    shape's solver, and each twist is ``body_twist``'s, float for float (shapes past the clamp
+    too)."""
+    sim = Simulator()
+    rng = np.random.default_rng(6)
+    shapes = [rng.uniform(-3.0, 3.0, 3) for _ in range(3)]
+    for k in range(90):
+        phi, theta = shapes[k % 3], rng.uniform(-5, 5, 4)
+        np.testing.assert_array_equal(sim._twist(theta, phi, None), body_twist(theta, phi))
+    assert len(sim._solvers) == 3
