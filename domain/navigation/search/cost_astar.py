@@ -78,12 +78,13 @@ def cost_astar_search(
             child = searchspace.SearchNode(succ_state, node, op, node.g + getattr(op, "cost", 1.0))
             if succ_state in closed:
                 continue  # no reopening
+            if not child.g < state_cost.get(succ_state, math.inf):
+                continue  # reached as cheaply already
             h_child = heuristic(child)
             if h_child == math.inf:
                 continue  # no way to the goal from there
-            if child.g < state_cost.get(succ_state, math.inf):
-                tiebreaker += 1
-                entry = (child.g + weight * h_child, h_child, tiebreaker, child)
-                heapq.heappush(open_list, entry)
-                state_cost[succ_state] = child.g
+            tiebreaker += 1
+            entry = (child.g + weight * h_child, h_child, tiebreaker, child)
+            heapq.heappush(open_list, entry)
+            state_cost[succ_state] = child.g
     return None

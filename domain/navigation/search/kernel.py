@@ -379,12 +379,14 @@ def _run(  # pragma: no cover - compiled
             at = slot(bk, b)
             if bk[at] == b and bv[at] < 0:
                 continue  # no reopening
-            h = state_heuristic(b, h_dims, h_f, h_values, h_risk)
+            g_child = g + here_costs[m]
+            met = bk[at] == b
+            if met and not g_child < node_g[bv[at]]:
+                continue  # reached as cheaply already
+            # (a state's heuristic value is its own: one met already keeps the one it had)
+            h = node_h[bv[at]] if met else state_heuristic(b, h_dims, h_f, h_values, h_risk)
             if h == math.inf:
                 continue  # no way to the goal from there
-            g_child = g + here_costs[m]
-            if bk[at] == b and not g_child < node_g[bv[at]]:
-                continue  # reached as cheaply already
             child = count[NODES]
             count[NODES] += 1
             node_state[child], node_parent[child], node_g[child] = b, node, g_child
