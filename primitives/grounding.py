@@ -22,7 +22,6 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import NDArray
 
 from primitives.library import Primitive
 from sim.controls import GAIT_CYCLE, Control, FixedShape, PeriodicGait
@@ -131,8 +130,9 @@ def ground(
         base, used = np.zeros(3), []
     delta = twist_of(want) - base
     # Each basis primitive b adds w·ξ_b when run at w·T_b/T of its speeds over the duration T.
-    xis = np.array([twist_of(e.end_pose or (0.0, 0.0, 0.0)) for e in basis])  # [B, 3]
-    weights = _weights(xis, delta, np.array([e.turn != 0.0 for e in basis], dtype=bool))
+    blend = _blend_of(basis)
+    xis = blend.twists
+    weights = _weights(blend, delta)
     for w, e in zip(weights, basis, strict=True):
         if abs(w) > 1e-9:
             theta = theta + w * np.asarray(e.theta) * (float(e.rollout.duration) / duration)
@@ -148,30 +148,69 @@ def ground(
     return Grounded(theta, joints, duration, "interpolated", tuple(used), expected, phases, cycles)
 
 
-def _weights(xis: Array, delta: Array, is_turn: NDArray[np.bool_]) -> Array:
+@dataclass(frozen=True)
+class _Blend:
+    """What a blend reads of its basis, made once per basis: each primitive's recorded twist
+    ``[B, 3]``, which are translations and which turns, and each translation's direction."""
+
+    twists: Array
+    translations: tuple[int, ...]
+    turns: tuple[int, ...]
+    directions: tuple[float, ...]  # atan2 of each translation's twist, in ``translations``' order
+
+
+_BLENDS: dict[tuple[object, ...], _Blend] = {}
+BLENDS_KEPT = 64  # bases remembered (one per shape and library version in use)
+
+
+def _blend_of(basis: Sequence[Primitive]) -> _Blend:
+    """The basis' ``_Blend``, remembered by what it is made of (a correction blends the same
+    few primitives at every move)."""
+    key = tuple((e.id, e.end_pose, e.turn) for e in basis)
+    got = _BLENDS.get(key)
+    if got is None:
+        twists = np.array([twist_of(e.end_pose or (0.0, 0.0, 0.0)) for e in basis])  # [B, 3]
+        translations = tuple(b for b, e in enumerate(basis) if e.turn == 0.0)
+        turns = tuple(b for b, e in enumerate(basis) if e.turn != 0.0)
+        directions = tuple(math.atan2(twists[b, 1], twists[b, 0]) for b in translations)
+        if len(_BLENDS) >= BLENDS_KEPT:
+            _BLENDS.clear()
+        got = _BLENDS[key] = _Blend(twists, translations, turns, directions)
+    return got
+
+
+def _sign(x: float) -> int:
+    return (x > 0) - (x < 0)
+
+
+def _weights(blend: _Blend, delta: Array) -> Array:
     """Weights of at most three basis primitives (the two translations bracketing the missing
     translation's direction, and a turn for the missing rotation), least squares otherwise."""
-    trans = [b for b in range(len(xis)) if not is_turn[b]]
-    turns = [b for b in range(len(xis)) if is_turn[b]]
+    xis = blend.twists
     out = np.zeros(len(xis))
     if len(xis) == 0:
         return out
     pick: list[int] = []
-    if len(trans) >= 2 and math.hypot(delta[0], delta[1]) > 1e-9:
-        angle = math.atan2(delta[1], delta[0])
-        gap = {
-            b: math.remainder(math.atan2(xis[b, 1], xis[b, 0]) - angle, 2 * math.pi) for b in trans
-        }
-        right = [b for b in trans if gap[b] <= 0]
-        left = [b for b in trans if gap[b] > 0]
-        if right and left:
-            pick += [max(right, key=gap.__getitem__), min(left, key=gap.__getitem__)]
-    if turns and abs(delta[2]) > 1e-4:
-        pick.append(
-            min(
-                turns, key=lambda b: (bool(np.sign(xis[b, 2]) != np.sign(delta[2])), abs(xis[b, 2]))
-            )
+    dx, dy, dw = (float(v) for v in delta)
+    if len(blend.translations) >= 2 and math.hypot(dx, dy) > 1e-9:
+        angle = math.atan2(dy, dx)
+        right = left = -1  # the nearest on either side (the first of equals)
+        right_gap = left_gap = 0.0
+        for b, direction in zip(blend.translations, blend.directions, strict=True):
+            gap = math.remainder(direction - angle, 2 * math.pi)
+            if gap <= 0:
+                if right < 0 or gap > right_gap:
+                    right, right_gap = b, gap
+            elif left < 0 or gap < left_gap:
+                left, left_gap = b, gap
+        if right >= 0 and left >= 0:
+            pick += [right, left]
+    if blend.turns and abs(dw) > 1e-4:
+        # the turn the right way, the smallest (the first of equals)
+        turn = min(
+            blend.turns, key=lambda b: (_sign(float(xis[b, 2])) != _sign(dw), abs(xis[b, 2]))
         )
+        pick.append(turn)
     chosen = pick if pick else list(range(len(xis)))
     w, *_ = np.linalg.lstsq(xis[chosen].T, delta, rcond=None)
     out[chosen] = w

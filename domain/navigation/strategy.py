@@ -36,7 +36,7 @@ from domain.pyperplan_adapter import CancelFlag
 from domain.strategy import Command, Replanned, Situation
 from domain.triggers import NoProgress, PathBlocked, ReplanRecord, Trigger
 from primitives.grounding import TICK, Grounded, correction_basis, ground
-from primitives.library import Library
+from primitives.library import Library, Primitive
 from primitives.shapes import SHAPES
 from sim.controls import PeriodicGait
 from sim.robot import rotate
@@ -71,6 +71,7 @@ class NavigationStrategy:
         self.settings = planner.settings
         self.view = view if view is not None else HeadView.default()
         self._tables: dict[tuple[str, tuple[float, ...]], MotionTable | None] = {}
+        self._bases: dict[str, tuple[Library, list[Primitive]]] = {}
         self.plan: Plan | None = None
         self.table: MotionTable | None = None
         self.index = 0
@@ -89,6 +90,14 @@ class NavigationStrategy:
         if key not in self._tables:
             self._tables[key] = motion_table(self.library, shape, key[1], self.settings, self.view)
         return self._tables[key]
+
+    def basis(self, shape: str) -> list[Primitive]:
+        """The shape's correction basis in the library as it is now (made once per library
+        and shape: every move grounds with it)."""
+        got = self._bases.get(shape)
+        if got is None or got[0] is not self.library:  # (learning brings a new library)
+            got = self._bases[shape] = (self.library, correction_basis(self.library.lattice(shape)))
+        return got[1]
 
     # -- PlanningStrategy ----------------------------------------------------------------------
     def replan(
@@ -213,7 +222,7 @@ class NavigationStrategy:
                 return NoProgress(action.pddl, "the robot is off the plan")
             assert action.primitive is not None
             entry = self.library.get(action.primitive)
-            grounded = ground(off, correction_basis(self.library.lattice(table.shape)), entry)
+            grounded = ground(off, self.basis(table.shape), entry)
             self.running = Running(action, grounded, grounded.duration)
 
     def actions(self) -> list[dict[str, Any]]:
@@ -257,7 +266,7 @@ class NavigationStrategy:
         goal = next(g for g in situation.goals if g.index == action.goal)
         x, y, psi = situation.pose
         d = rotate(np.array([goal.x - x, goal.y - y]), np.array(-psi))
-        basis = [e for e in correction_basis(self.library.lattice(table.shape)) if e.turn == 0.0]
+        basis = [e for e in self.basis(table.shape) if e.turn == 0.0]
         grounded = ground((float(d[0]), float(d[1]), 0.0), basis)
         return Running(action, grounded, grounded.duration)
 
