@@ -29,6 +29,7 @@ import py_trees
 from py_trees.common import Status
 
 from app.executor.behaviours import MissionBehaviour
+from app.executor.light import Selector
 from domain import navigation
 from domain.triggers import Recovered
 from primitives.grounding import TICK, Grounded, ground
@@ -363,7 +364,7 @@ class ClearStaleEvidence(Recovery):
 
 def recovery_tree(ns: str) -> py_trees.behaviour.Behaviour:
     """Back off first when it applies (a contact), else the others in turn."""
-    return py_trees.composites.Selector(
+    return Selector(
         "recover",
         memory=False,
         children=[

@@ -27,7 +27,6 @@ from __future__ import annotations
 from typing import Any
 
 import py_trees
-from py_trees.composites import Selector, Sequence
 
 from app.executor.behaviours import (
     Execute,
@@ -39,6 +38,7 @@ from app.executor.behaviours import (
     ShapeGuard,
 )
 from app.executor.chain import ChainShapeGuard, ChainStepBehaviour
+from app.executor.light import Selector, Sequence
 from app.executor.recoveries import RecoveryNode, recovery_tree, robot_position
 from app.missions.spec import MissionSpec
 from domain.navigation import RecoverySettings

@@ -206,3 +206,40 @@ def test_round_robin_hands_on_past_failing_children_and_fails_when_all_did() -> 
     assert tick(robin) == Status.SUCCESS and robin.feedback_message == "reshape done"
     nothing = RoundRobin("sense and retry", [Fails("spin"), Fails("reshape"), Fails("clear")])
     assert tick(nothing) == Status.FAILURE and nothing.feedback_message == "none applies"
+
+
+def snapshots_of(spec: MissionSpec) -> tuple[list[dict[str, Any]], Any]:
+    snapshots: list[dict[str, Any]] = []
+    runner = MissionRunner(spec, LIB, on_tick=lambda ctx, snap: snapshots.append(snap["tree"]))
+    return snapshots, runner.run()
+
+
+@pytest.mark.parametrize("which", ["posts-with-contact", "pocket", "chain"])
+def test_the_light_composites_tick_as_py_trees_own(which: str, monkeypatch) -> None:
+    """The tree's Sequence and Selector (py_trees' own, without debug messages, yielding only
+    their own node) give, tick for tick, the statuses, feedback and outcome py_trees'
+    composites give: through a contact and its back-off, a reshape, and a chain of
+    primitives."""
+    if which == "posts-with-contact":
+        mission = layout("posts", 1)
+        mission["sensors"] = {**mission.get("sensors", {}), "noise": 0.05}
+        spec = MissionSpec.model_validate(mission)
+    elif which == "pocket":
+        spec = load_mission(HARD / "reshape-into-pocket.json")
+    else:
+        spec = load_mission(HARD.parent / "fig9b-chain.json")
+    light, light_result = snapshots_of(spec)
+    import app.executor.recoveries as recoveries
+    import app.executor.tree as tree
+
+    monkeypatch.setattr(tree, "Sequence", py_trees.composites.Sequence)
+    monkeypatch.setattr(tree, "Selector", py_trees.composites.Selector)
+    monkeypatch.setattr(recoveries, "Selector", py_trees.composites.Selector)
+    own, own_result = snapshots_of(spec)
+    assert len(light) == len(own) > 10
+    assert light == own
+    assert (light_result.status, light_result.reason) == (own_result.status, own_result.reason)
+    assert light_result.model_time == own_result.model_time
+    kinds = [e["kind"] for e in light_result.events]
+    if which == "posts-with-contact":
+        assert "recovery" in kinds
