@@ -5,6 +5,7 @@ is in the way; and the compiled evaluation gives what its Python form gives."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -16,8 +17,10 @@ from domain.navigation.lattice.costs import (
     cell_centre,
     flat_cells,
     kernel_table,
+    lethal_costs,
     lethal_part,
     motion_slack,
+    risk_costs,
     risk_part,
     start_costs,
     state_costs,
@@ -163,28 +166,9 @@ def random_inputs(seed: int, settings: NavigationSettings = SETTINGS) -> tuple[C
     return inputs, p
 
 
-def lethal_of(fn, number: int, inputs: CostInputs, kt) -> tuple[int, np.ndarray]:
-    """``lethal_part`` (or its Python form ``fn``) of one state: bits and base costs."""
-    base = np.empty(kt.check_segments.shape[1] - 1)
-    bits = fn(
-        number, inputs.nx, inputs.ny, inputs.values, inputs.geo, kt.open_need, kt.check_unique,
-        kt.check_unique_counts, kt.check_cells, kt.check_needs, kt.check_fails,
-        kt.check_points, kt.grouped, kt.check_segments, kt.deltas, kt.cell_reach, kt.lengths,
-        kt.lead_lengths, inputs.params, base, np.empty(kt.check_unique.shape[1]),
-    )  # fmt: skip
-    return int(bits), base
-
-
-def risk_of(fn, number: int, inputs: CostInputs, kt, risk, blocked, flat) -> np.ndarray:
-    """``risk_part`` (or ``fn``) of one state over the layers ``risk`` and ``blocked``."""
-    extra = np.empty(kt.cell_segments.shape[1] - 1)
-    width = kt.new_unique.shape[1]
-    fn(
-        number, inputs.nx, inputs.ny, risk, blocked, flat, kt.new_unique, kt.new_unique_counts,
-        kt.blind_segments, kt.blind_cells, kt.seen_segments, kt.seen_cells, kt.cell_counts,
-        inputs.params, extra, np.empty(width), np.empty(width),
-    )  # fmt: skip
-    return extra
+def with_layers(inputs: CostInputs, risk, blocked, flat) -> CostInputs:
+    """``inputs`` with other risk and blocked layers and flat cells."""
+    return dataclasses.replace(inputs, risk=risk, blocked=blocked, flat=flat)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -207,8 +191,8 @@ def test_each_motion_reads_what_its_own_cells_hold(seed: int) -> None:
         k, cell = divmod(number, plane)
         i, j = divmod(cell, ny)
         cx, cy = cell_centre(inputs.geo, i, j)
-        bits, base = lethal_of(lethal_part, number, inputs, kt)
-        extra = risk_of(risk_part, number, inputs, kt, inputs.risk, inputs.blocked, no_flat)
+        bits, base = lethal_costs(number, inputs, kt)
+        extra = risk_costs(number, with_layers(inputs, inputs.risk, inputs.blocked, no_flat), kt)
         open_space = inputs.values[i, j] >= kt.open_need + radius
         for m in range(len(STRAIGHT.motions)):
             di, dj = kt.deltas[k, m, :2]
@@ -255,13 +239,13 @@ def test_the_compiled_cost_evaluation_equals_its_python_form(seed: int) -> None:
     for number in numbers:
         outs = []
         for fn in (lethal_part, lethal_part.py_func):
-            outs.append(lethal_of(fn, number, inputs, kt))
+            outs.append(lethal_costs(number, inputs, kt, fn))
         assert outs[0][0] == outs[1][0]
         np.testing.assert_array_equal(outs[0][1], outs[1][1])
         seen_bits.add(outs[0][0] == (1 << n) - 1)
         extras = []
         for fn in (risk_part, risk_part.py_func):
-            extras.append(risk_of(fn, number, inputs, kt, inputs.risk, inputs.blocked, inputs.flat))
+            extras.append(risk_costs(number, inputs, kt, fn))
         np.testing.assert_array_equal(extras[0], extras[1])
     assert seen_bits == {True, False}  # states with every motion valid, and with some not
 
@@ -307,6 +291,6 @@ def test_a_motions_risk_from_a_flat_cell_is_the_sum_over_its_cells(seed: int) ->
         i, j = divmod(number % (inputs.nx * inputs.ny), inputs.ny)
         if not flat[i, j]:
             continue
-        got = risk_of(risk_part, number, inputs, kt, risk, blocked, flat)
-        full = risk_of(risk_part, number, inputs, kt, risk, blocked, np.zeros_like(flat))
+        got = risk_costs(number, with_layers(inputs, risk, blocked, flat), kt)
+        full = risk_costs(number, with_layers(inputs, risk, blocked, np.zeros_like(flat)), kt)
         np.testing.assert_allclose(got, full, rtol=1e-12, atol=1e-12)

@@ -31,6 +31,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -515,11 +516,12 @@ class CostInputs:
 
 
 def lethal_costs(
-    number: int, inputs: CostInputs, kt: KernelTable
+    number: int, inputs: CostInputs, kt: KernelTable, part: Any = None
 ) -> tuple[int, NDArray[np.float64]]:
-    """``lethal_part`` of one state from Python: its valid motions' bitmask and base costs."""
+    """``lethal_part`` of one state from Python: its valid motions' bitmask and base costs
+    (``part``: the function to run instead, such as its Python form ``lethal_part.py_func``)."""
     base = np.empty(kt.check_segments.shape[1] - 1)
-    bits = lethal_part(
+    bits = (part or lethal_part)(
         number, inputs.nx, inputs.ny, inputs.values, inputs.geo, kt.open_need, kt.check_unique,
         kt.check_unique_counts, kt.check_cells, kt.check_needs, kt.check_fails,
         kt.check_points, kt.grouped, kt.check_segments, kt.deltas, kt.cell_reach, kt.lengths,
@@ -528,11 +530,13 @@ def lethal_costs(
     return int(bits), base
 
 
-def risk_costs(number: int, inputs: CostInputs, kt: KernelTable) -> NDArray[np.float64]:
-    """``risk_part`` of one state from Python."""
+def risk_costs(
+    number: int, inputs: CostInputs, kt: KernelTable, part: Any = None
+) -> NDArray[np.float64]:
+    """``risk_part`` of one state from Python (``part``: as ``lethal_costs``)."""
     extra = np.empty(kt.cell_segments.shape[1] - 1)
     width = kt.new_unique.shape[1]
-    risk_part(
+    (part or risk_part)(
         number, inputs.nx, inputs.ny, inputs.risk, inputs.blocked, inputs.flat, kt.new_unique,
         kt.new_unique_counts, kt.blind_segments, kt.blind_cells, kt.seen_segments,
         kt.seen_cells, kt.cell_counts, inputs.params, extra, np.empty(width), np.empty(width),
