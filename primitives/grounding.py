@@ -170,6 +170,7 @@ def _blend_of(basis: Sequence[Primitive]) -> _Blend:
     got = _BLENDS.get(key)
     if got is None:
         twists = np.array([twist_of(e.end_pose or (0.0, 0.0, 0.0)) for e in basis])  # [B, 3]
+        twists.flags.writeable = False  # shared by every grounding with this basis
         translations = tuple(b for b, e in enumerate(basis) if e.turn == 0.0)
         turns = tuple(b for b, e in enumerate(basis) if e.turn != 0.0)
         directions = tuple(math.atan2(twists[b, 1], twists[b, 0]) for b in translations)
