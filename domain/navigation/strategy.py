@@ -170,6 +170,7 @@ class NavigationStrategy:
             self.planner.grid,
             self.settings.margin,
             situation.world.clearance_at,
+            situation.world.version,
         )
         if blocked is None:
             return None

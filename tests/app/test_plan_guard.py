@@ -11,6 +11,7 @@ import pytest
 from app.executor.runner import MissionRunner
 from app.missions.spec import MissionSpec
 from domain.navigation import NavigationStrategy
+from domain.navigation.guard import Lookahead
 from domain.triggers import PathBlocked
 from primitives.library import load_bundled
 from tests.domain.lattice_scenes import sense_post
@@ -18,11 +19,15 @@ from tests.domain.lattice_scenes import sense_post
 LIB = load_bundled()
 
 
-def first_blocked_one_by_one(strategy: NavigationStrategy, world) -> tuple[str, tuple] | None:
-    """The reference: each move of the lookahead checked alone, in plan order."""
+def first_blocked_one_by_one(
+    strategy: NavigationStrategy, world, first: int | None = None
+) -> tuple[str, tuple] | None:
+    """The reference: each move of the lookahead checked alone, in plan order (from the
+    strategy's next step unless ``first`` is given)."""
     plan, table = strategy.plan, strategy.table
     assert plan is not None and table is not None
-    first = strategy.index + (1 if strategy.running is not None else 0)
+    if first is None:
+        first = strategy.index + (1 if strategy.running is not None else 0)
     lookahead = strategy.settings.follow.lookahead
     for n, action in enumerate(plan.actions[first : first + lookahead], start=first):
         if action.name != "move" or action.source is None or action.motion is None or n == 0:
@@ -68,6 +73,42 @@ def test_the_first_blocked_move_is_reported(pick: int) -> None:
     assert want is not None and isinstance(got, PathBlocked)
     assert (got.action, got.at) == want
     assert strategy.broken(ctx.situation()) is None  # checked once per model version
+
+
+def test_the_guard_answers_from_every_step_of_the_plan_as_one_by_one() -> None:
+    runner = planned_runner()
+    ctx = runner.ctx
+    strategy = ctx.strategy
+    assert isinstance(strategy, NavigationStrategy) and strategy.plan is not None
+    plan, table = strategy.plan, strategy.table
+    assert table is not None
+    moves = [a for a in plan.actions if a.name == "move"]
+    for move in (moves[3], moves[len(moves) // 2]):  # two posts the plan runs into
+        x, y, psi = move.target
+        sense_post(ctx.world, x + 0.95 * math.cos(psi), y + 0.95 * math.sin(psi), -math.pi / 2)
+    guard = Lookahead(strategy.settings.follow.lookahead)
+    steps = len(plan.actions)
+    order = list(range(steps + 2)) + list(np.random.default_rng(0).permutation(steps))
+    answers = set()
+    # forwards past the end, then anywhere: one gathering serves all; then again with the
+    # layer's version, so that a check skips what the last one at that version found clear
+    for first, version in [(f, None) for f in order] + [(f, ctx.world.version) for f in order]:
+        got = guard.first_blocked(
+            plan,
+            table,
+            int(first),
+            strategy.planner.grid,
+            strategy.settings.margin,
+            ctx.world.clearance_at,
+            version,
+        )
+        answer = None
+        if got is not None:
+            action, (cx, cy) = got
+            answer = (action.pddl, (round(cx, 3), round(cy, 3)))
+        assert answer == first_blocked_one_by_one(strategy, ctx.world, int(first))
+        answers.add(answer)
+    assert None in answers and len(answers) >= 3  # both posts block some lookahead, and none
 
 
 def test_contact_evidence_on_the_path_never_breaks_the_plan() -> None:
