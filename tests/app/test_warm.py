@@ -16,7 +16,7 @@ from domain.navigation import HeadView, NavigationStrategy, Planner, held_joints
 from domain.navigation.lattice import motions
 from domain.navigation.lattice import states as lattice_states
 from primitives.library import load_bundled
-from primitives.shapes import SHAPES
+from primitives.shapes import SHAPES, learned_name
 from sim.world import Bounds
 
 
@@ -52,18 +52,50 @@ def test_after_the_warm_up_every_shape_s_table_is_at_hand(
     library = load_bundled()
     monkeypatch.setattr(motions, "_TABLES", {})
     warm.warm_up(library)
-    made = {(key[0], key[1], key[2]) for key in motions._TABLES}
+    made = {(key[0], key[2]) for key in motions._TABLES}  # (shape, joints)
     spec = MissionSpec.model_validate(warm.WARM_UP)
     settings = navigation_settings(spec)
     view = HeadView.of(head_sensors(spec))
     for shape in library.lattice_shapes():
         joints = held_joints(SHAPES[shape].joints)
-        assert (id(library), shape, joints) in made
+        assert (shape, joints) in made
         before = len(motions._TABLES)
         planner = Planner(Bounds(-1.0, 1.0, -1.0, 1.0), settings)
         assert NavigationStrategy(library, planner, view).table_for(shape, joints) is not None
         assert len(motions._TABLES) == before  # the strategy finds it: no new table
     assert warm_tables(library, settings, view) == len(library.lattice_shapes())
+
+
+def test_a_library_with_a_learned_shape_keeps_every_other_shape_s_table(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A worker runs a mission after one that learned a shape with a new library object (the
+    bundled entries plus the learned ones): the shapes it already had keep their tables (each
+    costs a mission hundreds of milliseconds to make again), the new shape gets its own."""
+    library = load_bundled()
+    monkeypatch.setattr(motions, "_TABLES", {})
+    spec = MissionSpec.model_validate(warm.WARM_UP)
+    settings, view = navigation_settings(spec), HeadView.of(head_sensors(spec))
+    warm_tables(library, settings, view)
+    shapes = library.lattice_shapes()
+    learned_shape = shapes[0]
+    # a "learned" shape: the first shape's lattice entries under a learned shape's name
+    name = learned_name((0.9, -0.3, 0.6))
+    learned = [
+        e.model_copy(update={"id": f"{e.id}-learned", "shape": name})
+        for e in library.lattice(learned_shape)
+    ]
+    bigger = library.with_entries(learned)
+    assert bigger is not library and bigger.lattice_shapes() == sorted([*shapes, name])
+    made = len(motions._TABLES)
+    for shape in shapes:
+        joints = held_joints(SHAPES[shape].joints)
+        old = motions.motion_table(library, shape, joints, settings, view)
+        assert motions.motion_table(bigger, shape, joints, settings, view) is old
+    assert len(motions._TABLES) == made
+    joints = held_joints(SHAPES[learned_shape].joints)
+    new = motions.motion_table(bigger, name, joints, settings, view)
+    assert new is not None and new.shape == name and len(motions._TABLES) == made + 1
 
 
 def test_after_the_warm_up_what_the_process_holds_is_out_of_the_collector_s_way() -> None:

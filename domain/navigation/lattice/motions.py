@@ -519,7 +519,7 @@ def _first_cover_and_sight(  # pragma: no cover - compiled
     return out
 
 
-_TABLES: dict[tuple[Any, ...], tuple[Library, MotionTable | None]] = {}
+_TABLES: dict[tuple[Any, ...], tuple[tuple[Primitive, ...], MotionTable | None]] = {}
 TABLE_CACHE = 64  # motion tables kept per process (each ~0.3 s to build)
 
 
@@ -533,15 +533,16 @@ def motion_table(
 ) -> MotionTable | None:
     """The shape's lattice primitives as a motion table, or ``None`` if the library has none.
 
-    Tables are kept per process (keyed by the library object, shape, joints, the lattice's
-    settings and the head's view): every mission of a worker reuses them."""
+    Tables are kept per process, keyed by the shape's entries (the objects: a library made
+    with a newly learned shape holds the same ones for every other shape, so its tables stay),
+    joints, the lattice's settings and the head's view: every mission of a worker reuses them."""
     view = view if view is not None else HeadView.default()
     lattice = (settings.resolution, settings.orientations)
-    key = (id(library), shape, joints, lattice, view, geometry)
+    entries = tuple(library.lattice(shape))
+    key = (shape, tuple(map(id, entries)), joints, lattice, view, geometry)
     cached = _TABLES.get(key)
-    if cached is not None and cached[0] is library:
+    if cached is not None:
         return cached[1]
-    entries = library.lattice(shape)
     table = (
         MotionTable(
             shape,
@@ -556,7 +557,7 @@ def motion_table(
     )
     if len(_TABLES) >= TABLE_CACHE:
         _TABLES.clear()
-    _TABLES[key] = (library, table)  # the library is held so its id cannot be reused
+    _TABLES[key] = (entries, table)  # the entries are held so their ids cannot be reused
     return table
 
 
