@@ -260,7 +260,7 @@ class NavigationStrategy:
     # -- helpers -------------------------------------------------------------------------------
     @staticmethod
     def _offset(situation: Situation, target: tuple[float, float, float]) -> np.ndarray:
-        return relative(np.asarray(situation.pose, dtype=float), np.asarray(target, dtype=float))
+        return relative(situation.pose, target)
 
     def _approach(self, situation: Situation, table: MotionTable, action: PlanAction) -> Running:
         """A final approach that puts the tracked point on the goal, heading kept."""

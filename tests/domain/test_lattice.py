@@ -26,9 +26,11 @@ from domain.navigation import (
     leg_reach,
     motion_table,
 )
+from domain.navigation.lattice.grid import relative
 from domain.world import CostmapSettings, WorldModel
 from primitives.library import Library
 from sim.obstacles import Circle, rectangle
+from sim.robot import rotate
 from sim.world import Bounds
 from tests.domain.lattice_scenes import (
     ARC,
@@ -272,3 +274,13 @@ def test_a_plan_request_reads_its_pose_on_the_lattice() -> None:
     for action in out.actions:
         key = p.key_of(STRAIGHT, action.target)
         np.testing.assert_allclose(p.pose_of(STRAIGHT, key), action.target, atol=1e-9)
+
+
+def test_relative_is_the_inverse_pose_composed_with_the_target() -> None:
+    rng = np.random.default_rng(3)
+    for _ in range(500):
+        pose, target = rng.uniform(-5, 5, size=3), rng.uniform(-5, 5, size=3)
+        got = relative(tuple(pose), tuple(target))
+        xy = rotate(target[:2] - pose[:2], np.array(-pose[2]))
+        turn = math.remainder(float(target[2] - pose[2]), 2 * math.pi)
+        assert np.allclose(got, [xy[0], xy[1], turn], rtol=0, atol=1e-12)
