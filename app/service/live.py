@@ -31,13 +31,13 @@ from app.service.messages import (
     AddObstacle,
     Ended,
     Pause,
-    Publish,
     RemoveGoal,
     Resume,
     SaveState,
     Transition,
     Update,
     WorkerMessage,
+    frames_of,
 )
 from app.service.validation import Validation
 from app.settings import Settings, max_map_pixels, max_obstacles
@@ -113,8 +113,7 @@ class LiveMission:
         """What the worker reports (called for each of its messages, before they are relayed):
         goals reached, the robot's pose, its end."""
         with self.guard:
-            if isinstance(message, Publish):
-                frame = message.frame
+            for frame in frames_of(message):
                 if frame.get("type") == "state" and isinstance(frame.get("pose"), dict):
                     self.pose = frame["pose"]
                 elif frame.get("kind") == "goal_reached" and isinstance(frame.get("goal"), int):
@@ -123,7 +122,7 @@ class LiveMission:
                         goal = self.goals[index]
                         goal["reached"], goal["reached_at"] = True, frame.get("t")
                         goal["error"] = frame.get("error")
-            elif isinstance(message, SaveState | Transition | Ended) and message.state:
+            if isinstance(message, SaveState | Transition | Ended) and message.state:
                 self._merge(message.state)
             if isinstance(message, Ended):
                 self.stopping = "ended"

@@ -40,6 +40,23 @@ class Publish:
 
 
 @dataclass(frozen=True)
+class Events:
+    """Event frames to broadcast as they are, in order: those of a stretch of ticks, sent as
+    one message (an obstacle sensed at most ticks would otherwise be a message per tick)."""
+
+    frames: tuple[Frame, ...]
+
+
+def frames_of(message: WorkerMessage) -> tuple[Frame, ...]:
+    """The websocket frames a message carries as they are (a ``Publish``'s, an ``Events``')."""
+    if isinstance(message, Publish):
+        return (message.frame,)
+    if isinstance(message, Events):
+        return message.frames
+    return ()
+
+
+@dataclass(frozen=True)
 class Replanned:
     """A replan's record (trigger, latency, old and new plan), before its new plan."""
 
@@ -92,7 +109,15 @@ class Learned:
 
 
 WorkerMessage = (
-    Transition | SaveState | Publish | Replanned | PlanMade | TrajectoryDone | Learned | Ended
+    Transition
+    | SaveState
+    | Publish
+    | Events
+    | Replanned
+    | PlanMade
+    | TrajectoryDone
+    | Learned
+    | Ended
 )
 
 

@@ -31,6 +31,7 @@ from app.service.hub import Frame, Hub
 from app.service.library import SharedLibrary
 from app.service.messages import (
     Ended,
+    Events,
     Learned,
     PlanMade,
     Publish,
@@ -39,6 +40,7 @@ from app.service.messages import (
     TrajectoryDone,
     Transition,
     WorkerMessage,
+    frames_of,
 )
 from app.service.metrics import Metrics
 from app.settings import Settings
@@ -73,6 +75,15 @@ class Relay:
         """Hand a frame to the hub (from any thread)."""
         if self.loop is not None and not self.loop.is_closed():
             self.loop.call_soon_threadsafe(self.hub.publish, mission_id, frame)
+
+    def publish_all(self, mission_id: str, frames: list[Frame]) -> None:
+        """Hand frames to the hub in order (from any thread): one wake of the event loop."""
+        if self.loop is not None and not self.loop.is_closed():
+            self.loop.call_soon_threadsafe(self._publish_all, mission_id, frames)
+
+    def _publish_all(self, mission_id: str, frames: list[Frame]) -> None:
+        for frame in frames:
+            self.hub.publish(mission_id, frame)
 
     def transition(
         self,
@@ -115,15 +126,21 @@ class Relay:
     ) -> bool:
         """Store, then broadcast, one worker message; True at the end (``goals``: the
         mission's goals as the server accepted them, stored with its end)."""
-        if isinstance(message, Publish):
-            try:
-                frame = parse_frame(message.frame)
-            except ValidationError:  # a bug in the worker: say so, never send it to clients
-                log.exception("mission %s: a frame breaks the protocol", mission_id)
-            else:
+        if isinstance(message, Publish | Events):
+            frames = []
+            for raw in frames_of(message):
+                try:
+                    frame = parse_frame(raw)
+                except ValidationError:  # a bug in the worker: say so, never send it to clients
+                    log.exception("mission %s: a frame breaks the protocol", mission_id)
+                    continue
                 if isinstance(frame, StateFrame):
                     self.trees[mission_id] = frame.tree
-                self.publish(mission_id, frame)
+                frames.append(frame)
+            if len(frames) == 1:
+                self.publish(mission_id, frames[0])
+            elif frames:
+                self.publish_all(mission_id, frames)
         elif isinstance(message, SaveState):
             self.store.save_state(mission_id, message.state)
         elif isinstance(message, Transition):

@@ -35,6 +35,8 @@ from app.service.messages import (
     AddObstacle,
     Addressed,
     Ended,
+    Events,
+    Frame,
     Job,
     Learned,
     Pause,
@@ -316,6 +318,38 @@ def resident_bytes(pid: int | None = None) -> int | None:
 PAGE_SIZE = os.sysconf("SC_PAGE_SIZE") if hasattr(os, "sysconf") else 4096
 
 
+class EventBatch:
+    """An outbox that holds event frames back and sends them together as one ``Events``
+    message: before any other message (so the order stays), or once the oldest has waited
+    ``period`` wall seconds (``flush_due``, at every tick). An obstacle is sensed at most ticks
+    of a mission: one message each was a pickle, a pipe write, a validation and a wake of the
+    server's event loop per tick, on the core the mission runs on."""
+
+    def __init__(self, queue: Outbox, period: float) -> None:
+        self.queue, self.period = queue, period
+        self.frames: list[Frame] = []
+        self.since = 0.0  # when the oldest frame held came
+
+    def put(self, item: WorkerMessage) -> None:
+        if isinstance(item, Publish) and item.frame.get("type") == "event":
+            if not self.frames:
+                self.since = time.perf_counter()
+            self.frames.append(item.frame)
+            return
+        self.flush()
+        self.queue.put(item)
+
+    def flush_due(self) -> None:
+        """Send the frames held if the oldest has waited ``period``."""
+        if self.frames and time.perf_counter() - self.since >= self.period:
+            self.flush()
+
+    def flush(self) -> None:
+        if self.frames:
+            self.queue.put(Events(tuple(self.frames)))
+            self.frames = []
+
+
 def where() -> str:
     """This worker, as the ``planning`` transition names it: which process on which host."""
     return f"worker pid {os.getpid()} on {socket.gethostname()}"
@@ -331,10 +365,11 @@ def run_mission(
 ) -> None:
     """Run one mission, report through ``queue``, always end with Ended; leave nothing of it
     behind for the next mission this worker runs."""
+    batch = EventBatch(queue, 1.0 / ws_rate)
     try:
-        _run(job, library, ws_rate, queue, cancel, updates)
+        _run(job, library, ws_rate, batch, cancel, updates)
     except Exception as exc:  # report, never die silently (and never with a server path)
-        queue.put(Ended(MissionStatus.FAILED, f"server error ({type(exc).__name__})"))
+        batch.put(Ended(MissionStatus.FAILED, f"server error ({type(exc).__name__})"))
     finally:
         py_trees.blackboard.Blackboard.clear()  # the behaviour trees' keys and clients
         unfreeze_mission()
@@ -458,6 +493,8 @@ def _run(
         for message in news(runner, events_sent, versions):
             queue.put(message)
         events_sent, versions = len(ctx.events), ctx.plan_version
+        if isinstance(queue, EventBatch):
+            queue.flush_due()
         if done:
             break
         if time.perf_counter() - begun > wall_limit:

@@ -17,7 +17,7 @@ from app.executor.runner import MissionRunner
 from app.missions.spec import MissionSpec
 from app.missions.status import MissionStatus
 from app.service.frames import LearnedEvent, StateFrame, parse_frame
-from app.service.messages import Job, Learned, PlanMade, Publish, Transition
+from app.service.messages import Job, Learned, PlanMade, Publish, Transition, frames_of
 from app.service.worker import run_mission
 from primitives.library import load_bundled
 
@@ -143,6 +143,6 @@ def test_the_worker_reports_learning_its_progress_and_the_learned_entries() -> N
     assert messages.index(learned[0]) < first_plan  # learned before it planned
     assert messages[-1].status == MissionStatus.SUCCEEDED
     # every frame is one of the protocol's (the AsyncAPI document is made from them)
-    frames = [parse_frame(m.frame) for m in messages if isinstance(m, Publish)]
+    frames = [parse_frame(frame) for m in messages for frame in frames_of(m)]
     assert any(isinstance(f, LearnedEvent) and f.library for f in frames)
     assert any(isinstance(f, StateFrame) and f.learning is not None for f in frames)
