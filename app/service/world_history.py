@@ -12,6 +12,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Protocol
 
+import numpy as np
+from numpy.typing import NDArray
+
 RECORD_SECONDS = 1.0  # model seconds between records at most: the replay's resolution
 LAYERS = {"sensed": "sensed", "contacts": "contact"}  # change key -> to_dict key
 
@@ -26,6 +29,17 @@ class WorldView(Protocol):
     def to_dict(self) -> dict[str, Any]: ...
 
 
+class CellView(WorldView, Protocol):
+    """A world model that also gives its recorded cells as arrays (``recorded_cells``: the
+    sensed layer's occupied mask, flat, and the contact cells' flat indices, sorted) and the
+    centres of flat cells as ``to_dict`` lists them (``cell_centres``): the history then
+    compares masks and turns only the cells that came or went into centres."""
+
+    def recorded_cells(self) -> tuple[NDArray[np.bool_], NDArray[np.intp]]: ...
+
+    def cell_centres(self, flat: NDArray[np.intp]) -> list[list[float]]: ...
+
+
 @dataclass
 class WorldHistory:
     """Changes of the sensed and contact cells, each ``{"t", "sensed": {"added", "removed"},
@@ -34,6 +48,8 @@ class WorldHistory:
     every: float = RECORD_SECONDS
     changes: list[dict[str, Any]] = field(default_factory=list)
     _cells: dict[str, set[Cell]] = field(default_factory=lambda: {k: set() for k in LAYERS})
+    _mask: NDArray[np.bool_] | None = None  # (a CellView's) occupied mask at the last record
+    _contact: NDArray[np.intp] = field(default_factory=lambda: np.zeros(0, dtype=np.intp))
     _version: object = None
     _t: float = float("-inf")
 
@@ -49,8 +65,13 @@ class WorldHistory:
     def record(self, t: float, world: WorldView) -> None:
         """Record the model at model time ``t`` now (a change only if cells came or went)."""
         self._t, self._version = t, versions(world)
-        listed = world.to_dict()
         change: dict[str, Any] = {"t": round(t, 3)}
+        if hasattr(world, "recorded_cells") and hasattr(world, "cell_centres"):
+            self._record_cells(world, change)  # type: ignore[arg-type]
+            if len(change) > 1:
+                self.changes.append(change)
+            return
+        listed = world.to_dict()
         for key, source in LAYERS.items():
             now = {(float(x), float(y)) for x, y in listed.get(source) or []}
             before = self._cells[key]
@@ -63,6 +84,29 @@ class WorldHistory:
             self._cells[key] = now
         if len(change) > 1:
             self.changes.append(change)
+
+    def _record_cells(self, world: CellView, change: dict[str, Any]) -> None:
+        """``record``'s changes by cell index (the same lists: flat order is the centres'
+        (x, y) order)."""
+        mask, contact = world.recorded_cells()
+        before = self._mask if self._mask is not None else np.zeros_like(mask)
+        moved = np.flatnonzero(mask != before)
+        if moved.size:
+            came = mask[moved]
+            change["sensed"] = {
+                "added": world.cell_centres(moved[came]),
+                "removed": world.cell_centres(moved[~came]),
+            }
+        self._mask = mask
+        if contact.size or self._contact.size:
+            added = np.setdiff1d(contact, self._contact, assume_unique=True)
+            removed = np.setdiff1d(self._contact, contact, assume_unique=True)
+            if added.size or removed.size:
+                change["contacts"] = {
+                    "added": world.cell_centres(added),
+                    "removed": world.cell_centres(removed),
+                }
+        self._contact = contact
 
 
 def versions(world: WorldView) -> object:

@@ -360,13 +360,20 @@ class WorldModel:
         """The world centre of cell ``(i, j)``."""
         return self.grid.centre_of(i, j)
 
+    def recorded_cells(self) -> tuple[NDArray[np.bool_], NDArray[np.intp]]:
+        """What ``to_dict`` lists as ``sensed`` (a copy of the occupied mask, flat) and as
+        ``contact`` (flat cell indices, sorted)."""
+        return self._sensed.occupied.reshape(-1).copy(), self._evidence.cells()
+
+    def cell_centres(self, flat: NDArray[np.intp]) -> list[list[float]]:
+        """Cell centres ``[x, y]`` as ``to_dict`` lists them (rounded to 0.1 mm)."""
+        return np.round(self.grid.centres(flat), 4).tolist()  # type: ignore[no-any-return]
+
     def to_dict(self) -> dict[str, Any]:
         """A compact form for the API and viewer: grid geometry, sensed cell centres, contact
         evidence cells (with ``evidence`` their probabilities) and how much was observed."""
 
-        def cells(flat: NDArray[np.intp]) -> list[list[float]]:
-            return np.round(self.grid.centres(flat), 4).tolist()  # type: ignore[no-any-return]
-
+        cells = self.cell_centres
         contact = self._evidence.cells()
         p = self._evidence.probability.reshape(-1)[contact]
         return {

@@ -10,7 +10,11 @@ from typing import Any
 
 from fastapi.testclient import TestClient
 
+from app.executor.runner import MissionRunner
+from app.executor.warm import WARM_UP
+from app.missions.spec import MissionSpec
 from app.service.world_history import WorldHistory, world_at
+from primitives.library import load_bundled
 from tests.service.test_api import GOAL, wait_end
 from tests.service.test_live_updates import SLOW, executing, wait_for
 
@@ -128,6 +132,39 @@ def test_world_history_reads_the_model_only_when_a_recorded_layer_changed() -> N
     history.observe(10.0, model)
     assert model.reads == 2
     assert history.changes[-1]["contacts"] == {"added": [[0.125, 0.025]], "removed": []}
+
+
+def test_a_world_model_s_history_by_cell_index_is_the_one_its_to_dict_gives() -> None:
+    """Comparing a world model's cell masks gives the same changes as diffing its ``to_dict``
+    lists, tick by tick, through a mission that senses a hidden post and is touched."""
+
+    class Listed:  # the same model, seen through to_dict only
+        def __init__(self, world: Any) -> None:
+            self.world = world
+
+        @property
+        def version(self) -> int:
+            return int(self.world.version)
+
+        @property
+        def contact_version(self) -> int:
+            return int(self.world.contact_version)
+
+        def to_dict(self) -> dict[str, Any]:
+            return dict(self.world.to_dict())
+
+    runner = MissionRunner(MissionSpec.model_validate(WARM_UP), load_bundled())
+    by_index, by_dict = WorldHistory(every=0.0), WorldHistory(every=0.0)
+    ticks = 0
+    while not runner.step():
+        ctx, ticks = runner.ctx, ticks + 1
+        if ticks in (10, 30):  # a touch reported on a unit's side: contact evidence comes
+            ctx.world.add_contact(ctx.pose, ctx.sensed_joints(), 3, "left", ctx.t)
+        by_index.observe(ctx.t, ctx.world)
+        by_dict.observe(ctx.t, Listed(ctx.world))
+    assert by_index.changes == by_dict.changes
+    assert any("sensed" in c for c in by_index.changes)
+    assert any(c.get("contacts", {}).get("added") for c in by_index.changes)
 
 
 def test_a_running_missions_path_so_far(client: TestClient) -> None:
