@@ -225,42 +225,45 @@ def _weights(blend: _Blend, delta: Array) -> Array:
 DEPENDENT = 1e-9
 
 
-def _small_least_squares(columns: list[Array], b: tuple[float, float, float]) -> list[float] | None:
-    """The least-squares weights of up to three twist columns ``[3]`` for ``b``, in closed
+Vector3 = tuple[float, float, float]
+
+
+def _dot3(u: Vector3, v: Vector3) -> float:
+    return u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+
+
+def _det3(u: Vector3, v: Vector3, w: Vector3) -> float:
+    """``det [u v w]`` (columns), expanded along the first row."""
+    return (
+        u[0] * (v[1] * w[2] - v[2] * w[1])
+        - v[0] * (u[1] * w[2] - u[2] * w[1])
+        + w[0] * (u[1] * v[2] - u[2] * v[1])
+    )
+
+
+def _small_least_squares(columns: list[Array], rhs: Vector3) -> list[float] | None:
+    """The least-squares weights of up to three twist columns ``[3]`` for ``rhs``, in closed
     form (a blend's system: numpy's general solver costs ~30 us of setup for it), or None
     for more columns or nearly dependent ones. One or two columns: the normal equations; three:
     Cramer's rule on the columns themselves (the exact solution, as well conditioned as they
     are)."""
     cols = [(float(c[0]), float(c[1]), float(c[2])) for c in columns]
     if len(cols) == 1:
-        ((a0, a1, a2),) = cols
-        norm = a0 * a0 + a1 * a1 + a2 * a2
-        return [(a0 * b[0] + a1 * b[1] + a2 * b[2]) / norm] if norm > 0.0 else None
+        (u,) = cols
+        uu = _dot3(u, u)
+        return [_dot3(u, rhs) / uu] if uu > 0.0 else None
     if len(cols) == 2:
         u, v = cols
-        uu = u[0] * u[0] + u[1] * u[1] + u[2] * u[2]
-        vv = v[0] * v[0] + v[1] * v[1] + v[2] * v[2]
-        uv = u[0] * v[0] + u[1] * v[1] + u[2] * v[2]
+        uu, vv, uv = _dot3(u, u), _dot3(v, v), _dot3(u, v)
         det = uu * vv - uv * uv
         if not det > DEPENDENT * uu * vv:
             return None
-        ub = u[0] * b[0] + u[1] * b[1] + u[2] * b[2]
-        vb = v[0] * b[0] + v[1] * b[1] + v[2] * b[2]
+        ub, vb = _dot3(u, rhs), _dot3(v, rhs)
         return [(vv * ub - uv * vb) / det, (uu * vb - uv * ub) / det]
     if len(cols) == 3:
-        (a0, a1, a2), (b0, b1, b2), (c0, c1, c2) = cols
-        x, y, z = b
-        # det [u v w] and Cramer's numerators, each a triple product
-        det = a0 * (b1 * c2 - b2 * c1) - b0 * (a1 * c2 - a2 * c1) + c0 * (a1 * b2 - a2 * b1)
-        scale = math.sqrt(
-            (a0 * a0 + a1 * a1 + a2 * a2)
-            * (b0 * b0 + b1 * b1 + b2 * b2)
-            * (c0 * c0 + c1 * c1 + c2 * c2)
-        )
-        if not abs(det) > DEPENDENT * scale:
+        u, v, w = cols
+        det = _det3(u, v, w)
+        if not abs(det) > DEPENDENT * math.sqrt(_dot3(u, u) * _dot3(v, v) * _dot3(w, w)):
             return None
-        wu = x * (b1 * c2 - b2 * c1) - b0 * (y * c2 - z * c1) + c0 * (y * b2 - z * b1)
-        wv = a0 * (y * c2 - z * c1) - x * (a1 * c2 - a2 * c1) + c0 * (a1 * z - a2 * y)
-        ww = a0 * (b1 * z - b2 * y) - b0 * (a1 * z - a2 * y) + x * (a1 * b2 - a2 * b1)
-        return [wu / det, wv / det, ww / det]
+        return [_det3(rhs, v, w) / det, _det3(u, rhs, w) / det, _det3(u, v, rhs) / det]
     return None
