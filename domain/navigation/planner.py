@@ -37,7 +37,7 @@ from domain.navigation.lattice.states import StatePool
 from domain.navigation.lattice.task import LatticeTask
 from domain.navigation.plan import Failure, Plan, PlanAction, PlanRequest, Proof, leg_reach
 from domain.navigation.search.heuristic import CostHeuristic, cost_map, step_weights
-from domain.navigation.search.reach import lattice_reaches
+from domain.navigation.search.reach import GoalProof, lattice_reaches
 from domain.navigation.settings import NavigationSettings
 from domain.pyperplan_adapter import HEURISTICS, CancelFlag, SearchStopped, stop_if_due
 from domain.world import WorldModel
@@ -46,6 +46,7 @@ from sim.world import Bounds
 
 CACHES_KEPT = 8  # motion caches kept (one per body and margin); the least recently used goes
 MAPS_KEPT = 64  # heuristic maps kept (then all are dropped: a new world needs new ones)
+PROOFS_KEPT = 8  # goals' proofs of being out of reach kept (the oldest goes)
 
 
 class Planner:
@@ -71,6 +72,9 @@ class Planner:
         self.states = StatePool()  # search states shared by every search on this grid
         self._caches: dict[tuple[Any, ...], MotionCache] = {}
         self._maps: dict[tuple[Any, ...], Array] = {}
+        # Per body, margin and goal: the last proof that the goal is out of reach (its walk's
+        # states that could reach it), which a later replan's start may still be cut off by.
+        self._proofs: dict[tuple[Any, ...], GoalProof] = {}
         # The last start's table: a replan asks for it for the check of the start and for
         # the first leg.
         self._start: tuple[MotionTable, Key, Array, tuple[KernelTable, bool]] | None = None
@@ -322,6 +326,12 @@ class Planner:
             task = self.task(
                 table, inputs, cache, here_key, goal, leg == 0, deadline, request.cancel
             )
+            proof_key = (*body_key(table), self.settings.margin, goal.x, goal.y, leg_reach(goal))
+            kept = self._proofs.get(proof_key)
+            # (a start resting against something that leads nowhere is blocked, not a proof:
+            # the search below tells the two apart)
+            if kept is not None and not (touching and leg == 0) and kept.holds(task):
+                return self._unreachable(world, goal, table.shape, "search", plan.expansions)
             heuristic = self.leg_heuristic(task, maps[goal.index])
             s = self.settings.search
             found = searches.run(
@@ -360,6 +370,11 @@ class Planner:
             ):
                 return self._unreachable(world, goal, table.shape, "body", plan.expansions)
             walk = lattice_reaches(task, heuristic, s.reach_states)
+            if walk.proof is not None:
+                self._proofs.pop(proof_key, None)
+                if len(self._proofs) >= PROOFS_KEPT:
+                    del self._proofs[next(iter(self._proofs))]
+                self._proofs[proof_key] = walk.proof
             if walk.reaches is False:
                 if touching and leg == 0 and walk.side == "start" and walk.met <= out_of_start:
                     return self._blocked(table.shape, plan.expansions)

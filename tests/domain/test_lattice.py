@@ -284,3 +284,26 @@ def test_relative_is_the_inverse_pose_composed_with_the_target() -> None:
         xy = rotate(target[:2] - pose[:2], np.array(-pose[2]))
         turn = math.remainder(float(target[2] - pose[2]), 2 * math.pi)
         assert np.allclose(got, [xy[0], xy[1], turn], rtol=0, atol=1e-12)
+
+
+def test_a_tables_cell_checks_are_each_motions_own_and_keep_every_point() -> None:
+    """Per bin and motion, the checked cells are where that motion's points fall (each once,
+    sorted), a cell passes at the largest need there plus its point's offset and fails below
+    the largest need less it, and the grouped points are the motion's own, cell by cell."""
+    r = SETTINGS.resolution
+    for k in (0, 7, 33):
+        points, needs, segments = STRAIGHT.points[k], STRAIGHT.needs[k], STRAIGHT.segments[k]
+        bounds = np.append(segments, len(points))
+        cells_of, points_of = STRAIGHT.check_segments[k], STRAIGHT.check_points[k]
+        for m in range(len(STRAIGHT.motions)):
+            own, need = points[bounds[m] : bounds[m + 1]], needs[bounds[m] : bounds[m + 1]]
+            at = np.floor(own / r + 0.5).astype(np.int64)
+            off = np.abs(own - at * r).sum(axis=-1)
+            cells = STRAIGHT.checks[k][cells_of[m] : cells_of[m + 1]]
+            assert np.array_equal(cells, np.unique(at, axis=0))
+            for c, cell in enumerate(cells, start=int(cells_of[m])):
+                here = np.all(at == cell, axis=1)
+                assert STRAIGHT.check_needs[k][c] == np.max(need[here] + off[here])
+                assert STRAIGHT.check_fails[k][c] == np.max(need[here] - off[here])
+                grouped = STRAIGHT.grouped[k][points_of[c] : points_of[c + 1]]
+                assert np.array_equal(grouped, np.column_stack([own[here], need[here]]))

@@ -15,7 +15,7 @@ import pytest
 from domain.goal_order import LegGoal
 from domain.navigation import Failure, NavigationStrategy, Plan, Planner
 from domain.navigation.lattice.costs import start_costs
-from domain.navigation.plan import FailureKind, Proof
+from domain.navigation.plan import FailureKind, PlanRequest, Proof
 from domain.navigation.settings import SearchSettings
 from domain.strategy import Situation
 from domain.triggers import Initial
@@ -23,7 +23,7 @@ from domain.world import WorldModel
 from primitives.library import Library
 from sim.obstacles import Circle, rectangle
 from sim.world import Bounds
-from tests.domain.lattice_scenes import LIB, SETTINGS, STRAIGHT, plan
+from tests.domain.lattice_scenes import LIB, SETTINGS, STRAIGHT, legs, plan
 from tests.domain.test_feasibility import BOX
 
 ARENA = Bounds(-2, 2, -2, 2)
@@ -113,6 +113,33 @@ def test_a_goal_in_a_room_the_body_cannot_enter_is_proved_from_the_rooms_side(do
     )  # fmt: skip
     assert (out.kind, out.proof, out.goal) == ("unreachable", "known", 0)
     assert out.reason.startswith("unreachable: no collision-free sequence of straight")
+
+
+def test_a_goal_proved_out_of_reach_stays_proved_while_the_clearance_only_falls() -> None:
+    """The room's proof (its side's states that could reach the goal) answers a later replan
+    from elsewhere without a search, in the same world or one with more in it; where the
+    clearance rose (a wider door), or from a start inside the room, the search answers."""
+    settings = dataclasses.replace(
+        SETTINGS, search=SearchSettings(expansions=300, reach_states=20_000)
+    )
+    bounds, goal = Bounds(-5, 5, -5, 5), legs([(2.0, 0.0)])
+    p, world, first = plan(bounds, room(0.17), (-3.0, 0.0, 0.0), [(2.0, 0.0)], settings=settings)
+    assert isinstance(first, Failure) and first.kind == "unreachable" and first.expansions > 0
+
+    def again(w: WorldModel, pose: tuple[float, float, float]) -> Plan | Failure:
+        return p.plan(PlanRequest(pose, STRAIGHT, goal, True, w))
+
+    moved = again(world, (-2.0, 1.5, 0.7))
+    assert isinstance(moved, Failure) and moved.kind == "unreachable", moved
+    assert moved.expansions == 0 and moved.reason == first.reason
+    more = WorldModel(bounds, [*room(0.17), Circle(-3.5, -2.0, 0.3)], settings.costmap)
+    crowded = again(more, (-3.0, 0.5, 0.0))
+    assert (crowded.kind, crowded.expansions) == ("unreachable", 0)
+    wider = WorldModel(bounds, room(0.5), settings.costmap)
+    opened = again(wider, (-3.0, 0.0, 0.0))
+    assert isinstance(opened, Plan) or opened.kind == "timeout", opened
+    inside = again(world, (1.8, 0.0, 0.0))
+    assert isinstance(inside, Plan), inside
 
 
 def test_a_room_the_body_can_enter_is_never_proved_unreachable_on_a_small_budget() -> None:

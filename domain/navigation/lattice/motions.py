@@ -274,7 +274,7 @@ class MotionTable:
             # head's side rays cross as it passes them, cycle after cycle; counted per motion
             # as blind, the tail's swing would charge every head-first step for cells it
             # sweeps again and again. Validity (the sample points above) is the bent body's.
-            cells_m.append(_new_cells(starts, poses, area, rays, r))
+            cells_m.append(_new_cells(swept, area, rays, r))
         self.lengths = np.array(lengths, dtype=np.float64)
         self.leads = np.array([tail_lead(m) for m in self.motions], dtype=np.float64)
         self.points, self.needs, self.segments = [], [], []
@@ -295,22 +295,13 @@ class MotionTable:
             body = _cell_checks(self.body_points[k], self.body_needs[k], r)
             self.body_checks.append(body.cells)
             self.body_check_needs.append(body.passes)
-            parts = []
-            for m in range(M):
-                lo = int(self.segments[k][m])
-                hi = int(self.segments[k][m + 1]) if m + 1 < M else len(self.points[k])
-                parts.append(_cell_checks(self.points[k][lo:hi], self.needs[k][lo:hi], r))
-            self.checks.append(np.concatenate([c.cells for c in parts]))
-            self.check_needs.append(np.concatenate([c.passes for c in parts]))
-            self.check_fails.append(np.concatenate([c.fails for c in parts]))
-            self.grouped.append(np.concatenate([c.points for c in parts]))
-            bounds = np.cumsum([0, *(len(c.cells) for c in parts)])
-            self.check_segments.append(bounds.astype(np.int64))
-            offsets, first = [], 0
-            for part in parts:
-                offsets.append(part.bounds[:-1] + first)
-                first += len(part.points)
-            self.check_points.append(np.concatenate([*offsets, [first]]).astype(np.int64))
+            motions = _cell_checks(self.points[k], self.needs[k], r, self.segments[k])
+            self.checks.append(motions.cells)
+            self.check_needs.append(motions.passes)
+            self.check_fails.append(motions.fails)
+            self.grouped.append(motions.points)
+            self.check_segments.append(motions.group_bounds)
+            self.check_points.append(motions.bounds)
         # Clearance at the centroid beyond which every motion is free (clearance is
         # 1-Lipschitz: no point lies further than `reach` from the centroid).
         self.open_clearance = max(
@@ -436,22 +427,40 @@ class CellChecks:
     fails: Array
     points: Array
     bounds: NDArray[np.int64]
+    group_bounds: NDArray[np.int64]
+    """where each group's cells begin among ``cells`` (and their end)"""
 
 
-def _cell_checks(points: Array, needs: Array, resolution: float) -> CellChecks:
-    """``CellChecks`` of a motion's sample points (relative to the centroid) and their needs."""
+def _cell_checks(
+    points: Array, needs: Array, resolution: float, segments: NDArray[np.int64] | None = None
+) -> CellChecks:
+    """``CellChecks`` of sample points (relative to the centroid) and their needs, the points
+    in groups (a bin's motions: ``segments``, where each group's points begin; one group
+    without) whose cells are each group's own, in group order, each group's sorted by cell.
+    One sort over every group's points: a motion table has one such set per bin."""
+    n = len(points)
+    starts = np.zeros(1, dtype=np.int64) if segments is None else np.asarray(segments, np.int64)
+    group = np.repeat(np.arange(len(starts)), np.diff(np.append(starts, n)))
     cells = np.floor(points / resolution + 0.5).astype(np.int64)
     off = np.sum(np.abs(points - cells * resolution), axis=-1)
-    unique, inverse = np.unique(cells, axis=0, return_inverse=True)
-    inverse = inverse.ravel()
-    passes = np.full(len(unique), -np.inf)
-    fails = np.full(len(unique), -np.inf)
-    np.maximum.at(passes, inverse, needs + off)
-    np.maximum.at(fails, inverse, needs - off)
-    order = np.argsort(inverse, kind="stable")
+    # A key ordered as (group, cell row, cell column) lexicographically: one 1-D sort.
+    low = cells.min(axis=0, initial=0)
+    span = cells.max(axis=0, initial=0) - low + 1
+    key = (group * span[0] + (cells[:, 0] - low[0])) * span[1] + (cells[:, 1] - low[1])
+    order = np.argsort(key, kind="stable")
+    ordered = key[order]
+    first = np.flatnonzero(np.diff(ordered, prepend=-1)) if n else np.zeros(0, np.int64)
+    bounds = np.append(first, n).astype(np.int64)
+    if n:
+        passes = np.maximum.reduceat((needs + off)[order], first)
+        fails = np.maximum.reduceat((needs - off)[order], first)
+    else:
+        passes = fails = np.zeros(0)
     grouped = np.column_stack([points[order], needs[order]])
-    bounds = np.searchsorted(inverse[order], np.arange(len(unique) + 1)).astype(np.int64)
-    return CellChecks(unique, passes, fails, grouped, bounds)
+    group_bounds = np.searchsorted(group[order][first], np.arange(len(starts) + 1))
+    return CellChecks(
+        cells[order[first]], passes, fails, grouped, bounds, group_bounds.astype(np.int64)
+    )
 
 
 def _travel(poses: Array, area: Array) -> float:
@@ -463,20 +472,19 @@ def _travel(poses: Array, area: Array) -> float:
 
 
 def _new_cells(
-    starts: Array, poses: Array, area: Array, rays: Array, resolution: float
+    swept: Array, area: Array, rays: Array, resolution: float
 ) -> list[NDArray[np.int64]]:
-    """Per bin (``starts``: each bin's start pose, its centroid at the origin): the cells
-    (offsets from the start cell and a blind flag, ``[N, 3]``) the body covers along ``poses``
-    but not at the first; blind where no ray sample saw the cell at an earlier pose."""
+    """Per bin (``swept``: each bin's poses along the motion ``[K, S, 3]``, its start
+    centroid at the origin): the cells (offsets from the start cell and a blind flag,
+    ``[N, 3]``) the body covers along the poses but not at the first; blind where no ray
+    sample saw the cell at an earlier pose."""
     side = 2 * STENCIL_REACH + 1
-    out = []
-    for start in starts:
-        swept = compose(start[None, :], poses)
-        cells = _first_cover_and_sight(
-            np.ascontiguousarray(swept), area, rays, resolution, STENCIL_REACH, side
+    return [
+        _first_cover_and_sight(
+            np.ascontiguousarray(bin_swept), area, rays, resolution, STENCIL_REACH, side
         )
-        out.append(cells)
-    return out
+        for bin_swept in swept
+    ]
 
 
 @jit

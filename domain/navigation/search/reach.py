@@ -16,6 +16,13 @@ forward walk checks it, ``costs.motion_slack``). The states that can reach the g
 out without the start among them is the same proof, from the side that is small when a goal
 is enclosed (an open arena round a closed room), so the proof costs what the smaller side
 has, not what the open one has.
+
+A goal side's proof outlives its replan (``GoalProof``): the states it found able to reach the
+goal are all there are, and while the lethal clearance is nowhere higher than it was, valid
+motions are only fewer, so those states can only be fewer too. A later start none of whose
+own motions leads into them is cut off as well, without a search: an enclosure sensed wall by
+wall is proven once, not at every replan (the clearance rising anywhere, as when evidence is
+cleared, ends the proof: then the search and the walks answer again).
 """
 
 from __future__ import annotations
@@ -39,11 +46,40 @@ REACHED, NONE, OVER, RUNNING = range(4)
 
 class Reach(NamedTuple):
     """What the walk found: ``reaches`` (``None``: ``states`` states met first on both sides),
-    from which side it answered, and how many states the start's side met."""
+    from which side it answered, how many states the start's side met, and, when the goal's
+    side proved the goal out of reach, that proof (``GoalProof``)."""
 
     reaches: bool | None
     side: Literal["start", "goal"]
     met: int
+    proof: GoalProof | None = None
+
+
+class GoalProof(NamedTuple):
+    """The states from which some sequence of valid motions reaches a goal (every one: the
+    goal's walk ran out of them), and the lethal clearance they were found on."""
+
+    values: Array
+    reaching: NDArray[np.bool_]
+
+    def holds(self, task: LatticeTask) -> bool:
+        """Whether ``task``'s start (of the same body, margin, goal and grid as the proof's)
+        is cut off from the goal too: the clearance nowhere higher than the proof's (so no
+        motion valid now was invalid then), the start none of those states, and none of its
+        own valid motions leading into them."""
+        values = task.inputs.values
+        if values.shape != self.values.shape or not bool(np.all(values <= self.values)):
+            return False
+        start = task.start_number
+        if self.reaching[start]:
+            return False
+        grid = task.grid
+        plane = grid.nx * grid.ny
+        bits = task.start_costs()[0]
+        k, cell = divmod(start, plane)
+        targets = task.motion_targets[k] + cell
+        valid = (bits >> np.arange(len(targets), dtype=np.int64)) & 1 == 1
+        return not bool(np.any(self.reaching[targets[valid]]))
 
 
 def lattice_reaches(task: LatticeTask, heuristic: CostHeuristic, states: int) -> Reach:
@@ -61,7 +97,10 @@ def lattice_reaches(task: LatticeTask, heuristic: CostHeuristic, states: int) ->
         back = back or _Back(task, states)  # (made once the start's side did not answer at once)
         stop_if_due(task.cancel, task.deadline)
         if back.step() in (REACHED, NONE):
-            return Reach(back.status == REACHED, "goal", forward.met)
+            if back.status == REACHED:
+                return Reach(True, "goal", forward.met)
+            proof = GoalProof(task.inputs.values.copy(), back.seen)
+            return Reach(False, "goal", forward.met, proof)
         if forward.status == back.status == OVER:
             return Reach(None, "goal", forward.met)
 
