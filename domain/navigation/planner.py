@@ -5,7 +5,9 @@ map (an infinite distance at the start proves the goal enclosed), unordered goal
 those maps, and one cost search per leg. A leg whose search spends
 its budget ends the plan at its best node (a partial plan: the robot goes there, senses, and
 plans again) if that is closer, else the feasibility check decides between a proof that the
-goal is out of reach and a timeout. ``Failure``s are typed; soft costs never cause one.
+goal is out of reach and a timeout. A goal proven out of reach by its own side's walk keeps
+that proof (``search.reach.GoalProof``): a later leg to it asks the proof, or walks that side
+again, before it searches. ``Failure``s are typed; soft costs never cause one.
 """
 
 from __future__ import annotations
@@ -37,7 +39,12 @@ from domain.navigation.lattice.states import StatePool
 from domain.navigation.lattice.task import LatticeTask
 from domain.navigation.plan import Failure, Plan, PlanAction, PlanRequest, Proof, leg_reach
 from domain.navigation.search.heuristic import CostHeuristic, cost_map, step_weights
-from domain.navigation.search.reach import GoalProof, lattice_reaches
+from domain.navigation.search.reach import (
+    GoalProof,
+    goal_side_proof,
+    lattice_reaches,
+    leaves_start,
+)
 from domain.navigation.settings import NavigationSettings
 from domain.pyperplan_adapter import HEURISTICS, CancelFlag, SearchStopped, stop_if_due
 from domain.world import WorldModel
@@ -47,6 +54,7 @@ from sim.world import Bounds
 CACHES_KEPT = 8  # motion caches kept (one per body and margin); the least recently used goes
 MAPS_KEPT = 64  # heuristic maps kept (then all are dropped: a new world needs new ones)
 PROOFS_KEPT = 8  # goals' proofs of being out of reach kept (the oldest goes)
+REPROOF_GROWTH = 2  # a re-proof walks at most this many times its last proof's states
 
 
 class Planner:
@@ -326,14 +334,25 @@ class Planner:
             task = self.task(
                 table, inputs, cache, here_key, goal, leg == 0, deadline, request.cancel
             )
-            proof_key = (*body_key(table), self.settings.margin, goal.x, goal.y, leg_reach(goal))
-            kept = self._proofs.get(proof_key)
-            # (a start resting against something that leads nowhere is blocked, not a proof:
-            # the search below tells the two apart)
-            if kept is not None and not (touching and leg == 0) and kept.holds(task):
-                return self._unreachable(world, goal, table.shape, "search", plan.expansions)
             heuristic = self.leg_heuristic(task, maps[goal.index])
             s = self.settings.search
+            # A start resting closer than its margin moves out by its own relaxed motions
+            # only: a search that never got past them says nothing of the goal (start
+            # blocked; the recoveries back the body off first). Once it did, what it ran out
+            # of is what the body reaches at its margin.
+            out_of_start = 1 + len(table.motions)
+            proof_key = (*body_key(table), self.settings.margin, goal.x, goal.y, leg_reach(goal))
+            kept = self._proofs.get(proof_key)
+            if kept is not None and (
+                leg > 0 or not touching or leaves_start(task, heuristic, out_of_start)
+            ):
+                if kept.holds(task):
+                    return self._unreachable(world, goal, table.shape, "search", plan.expansions)
+                again = goal_side_proof(task, REPROOF_GROWTH * kept.states + 1)
+                if again is not None:
+                    self._keep_proof(proof_key, again)
+                    return self._unreachable(world, goal, table.shape, "search", plan.expansions)
+                del self._proofs[proof_key]  # the goal's side grew or met the start: search
             found = searches.run(
                 task,
                 heuristic,
@@ -352,11 +371,6 @@ class Planner:
                 self.keep_for_export(task, actions, here_key)
                 plan.actions += actions
                 continue
-            # A start resting closer than its margin moves out by its own relaxed motions
-            # only: a search that never got past them says nothing of the goal (start
-            # blocked; the recoveries back the body off first). Once it did, what it ran out
-            # of is what the body reaches at its margin.
-            out_of_start = 1 + len(table.motions)
             if found.status == "exhausted":
                 if touching and leg == 0 and found.expansions <= out_of_start:
                     return self._blocked(table.shape, plan.expansions)
@@ -371,10 +385,7 @@ class Planner:
                 return self._unreachable(world, goal, table.shape, "body", plan.expansions)
             walk = lattice_reaches(task, heuristic, s.reach_states)
             if walk.proof is not None:
-                self._proofs.pop(proof_key, None)
-                if len(self._proofs) >= PROOFS_KEPT:
-                    del self._proofs[next(iter(self._proofs))]
-                self._proofs[proof_key] = walk.proof
+                self._keep_proof(proof_key, walk.proof)
             if walk.reaches is False:
                 if touching and leg == 0 and walk.side == "start" and walk.met <= out_of_start:
                     return self._blocked(table.shape, plan.expansions)
@@ -403,6 +414,14 @@ class Planner:
                 plan.expansions,
             )
         return plan
+
+    def _keep_proof(self, key: tuple[Any, ...], proof: GoalProof) -> None:
+        """Keep a goal's proof of being out of reach (the newest last; the oldest goes past
+        ``PROOFS_KEPT``)."""
+        self._proofs.pop(key, None)
+        if len(self._proofs) >= PROOFS_KEPT:
+            del self._proofs[next(iter(self._proofs))]
+        self._proofs[key] = proof
 
     @staticmethod
     def _blocked(shape: str, expansions: int) -> Failure:

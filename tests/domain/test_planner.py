@@ -135,11 +135,40 @@ def test_a_goal_proved_out_of_reach_stays_proved_while_the_clearance_only_falls(
     more = WorldModel(bounds, [*room(0.17), Circle(-3.5, -2.0, 0.3)], settings.costmap)
     crowded = again(more, (-3.0, 0.5, 0.0))
     assert (crowded.kind, crowded.expansions) == ("unreachable", 0)
+    # Resting against a wall it can move off, the start is cut off all the same; wedged
+    # where its own motions lead nowhere, it is blocked, as without the proof.
+    touching = WorldModel(
+        bounds, [*room(0.17), rectangle(-2.65, -0.12, 0.8, 0.1)], settings.costmap
+    )
+    against = again(touching, (-3.0, 0.0, 0.0))
+    assert (against.kind, against.expansions) == ("unreachable", 0), against
+    wedge = [rectangle(-2.55, 0.15, 1.5, 0.1), *walled(-3.2, -1.9, -0.074, 0.3, -0.03, 0.13)[1:]]
+    wedged = again(WorldModel(bounds, [*room(0.17), *wedge], settings.costmap), (-3.0, 0.0, 0.0))
+    assert wedged.kind == "start_blocked", wedged
     wider = WorldModel(bounds, room(0.5), settings.costmap)
     opened = again(wider, (-3.0, 0.0, 0.0))
     assert isinstance(opened, Plan) or opened.kind == "timeout", opened
-    inside = again(world, (1.8, 0.0, 0.0))
+    inside = again(world, (1.8, 0.0, 0.0))  # (the door open, the proof is gone)
     assert isinstance(inside, Plan), inside
+
+
+def test_a_goal_proved_out_of_reach_is_proved_again_from_its_side_where_the_clearance_rose() -> (
+    None
+):
+    """Something inside the room gone (the clearance rose there, not at the door): the room's
+    side is walked again, without the search, and proves it anew."""
+    settings = dataclasses.replace(
+        SETTINGS, search=SearchSettings(expansions=300, reach_states=20_000)
+    )
+    bounds = Bounds(-5, 5, -5, 5)
+    inner = Circle(2.3, 0.3, 0.08)
+    p, _, first = plan(
+        bounds, [*room(0.17), inner], (-3.0, 0.0, 0.0), [(2.0, 0.0)], settings=settings
+    )
+    assert isinstance(first, Failure) and first.kind == "unreachable" and first.expansions > 0
+    emptier = WorldModel(bounds, room(0.17), settings.costmap)
+    out = p.plan(PlanRequest((-3.0, 0.0, 0.0), STRAIGHT, legs([(2.0, 0.0)]), True, emptier))
+    assert (out.kind, out.expansions) == ("unreachable", 0), out
 
 
 def test_a_room_the_body_can_enter_is_never_proved_unreachable_on_a_small_budget() -> None:

@@ -22,7 +22,10 @@ goal are all there are, and while the lethal clearance is nowhere higher than it
 motions are only fewer, so those states can only be fewer too. A later start none of whose
 own motions leads into them is cut off as well, without a search: an enclosure sensed wall by
 wall is proven once, not at every replan (the clearance rising anywhere, as when evidence is
-cleared, ends the proof: then the search and the walks answer again).
+cleared, ends the proof as it stood). A goal proven out of reach before is then walked from
+its side first (``goal_side_proof``), bounded by a few times the states its proof had: the
+proof again at the cost of the enclosure's states, before a search that would spend its whole
+budget outside it; past the bound, or having met the start, the search answers.
 """
 
 from __future__ import annotations
@@ -62,6 +65,11 @@ class GoalProof(NamedTuple):
     values: Array
     reaching: NDArray[np.bool_]
 
+    @property
+    def states(self) -> int:
+        """How many states could reach the goal."""
+        return int(np.count_nonzero(self.reaching))
+
     def holds(self, task: LatticeTask) -> bool:
         """Whether ``task``'s start (of the same body, margin, goal and grid as the proof's)
         is cut off from the goal too: the clearance nowhere higher than the proof's (so no
@@ -80,6 +88,30 @@ class GoalProof(NamedTuple):
         targets = task.motion_targets[k] + cell
         valid = (bits >> np.arange(len(targets), dtype=np.int64)) & 1 == 1
         return not bool(np.any(self.reaching[targets[valid]]))
+
+
+def goal_side_proof(task: LatticeTask, states: int) -> GoalProof | None:
+    """The goal's walk alone, up to ``states`` states: a proof that the task's start cannot
+    reach the goal (``GoalProof``), or ``None`` when it met the start or the bound first. The
+    check to run first for a goal proven out of reach before, whose proof no longer holds as
+    it stood: its side was small then and, unless the clearance rose, stays small. Raises
+    ``SearchStopped`` for a cancel or the deadline."""
+    back = _Back(task, states)
+    while back.step() == RUNNING:
+        stop_if_due(task.cancel, task.deadline)
+    if back.status != NONE:
+        return None
+    return GoalProof(task.inputs.values.copy(), back.seen)
+
+
+def leaves_start(task: LatticeTask, heuristic: CostHeuristic, states: int) -> bool:
+    """Whether the start's side holds more than ``states`` states (or the goal): the body
+    gets out of where it rests, rather than only into the few states its own motions reach.
+    Raises ``SearchStopped`` for a cancel or the deadline."""
+    forward = _Forward(task, heuristic, states)
+    while forward.step() == RUNNING:
+        stop_if_due(task.cancel, task.deadline)
+    return forward.status != NONE
 
 
 def lattice_reaches(task: LatticeTask, heuristic: CostHeuristic, states: int) -> Reach:
