@@ -2,10 +2,11 @@
 
 One replan: the costmap's two views read once (``inputs``); per goal, the obstacle heuristic's
 map (an infinite distance at the start proves the goal enclosed), unordered goals ordered by
-those maps, and one cost search per leg. A leg whose search spends
+those maps, and per leg the relaxed body's flood (``Feasibility``, about a millisecond: a
+proof the search would give only at its end) before one cost search. A leg whose search spends
 its budget ends the plan at its best node (a partial plan: the robot goes there, senses, and
-plans again) if that is closer, else the feasibility check decides between a proof that the
-goal is out of reach and a timeout. A goal proven out of reach by its own side's walk keeps
+plans again) if that is closer, else the walk over valid motions decides between a proof that
+the goal is out of reach and a timeout. A goal proven out of reach by its own side's walk keeps
 that proof (``search.reach.GoalProof``): a later leg to it asks the proof, or walks that side
 again, before it searches. ``Failure``s are typed; soft costs never cause one.
 """
@@ -330,6 +331,7 @@ class Planner:
         )
         plan = Plan([], [g.index for g in order], shape=table.shape)
         here_key = start
+        feasible = Feasibility(self.grid, table, inputs.values, self.settings.margin)
         for leg, goal in enumerate(order):
             task = self.task(
                 table, inputs, cache, here_key, goal, leg == 0, deadline, request.cancel
@@ -341,10 +343,19 @@ class Planner:
             # blocked; the recoveries back the body off first). Once it did, what it ran out
             # of is what the body reaches at its margin.
             out_of_start = 1 + len(table.motions)
+            # The relaxed body's flood is a proof in about a millisecond that a search would
+            # give only after exhausting every state it reaches or its whole budget: asked
+            # first. (A start resting closer than its margin asks it after the search, which
+            # tells a body blocked where it rests from a goal out of reach.)
+            first_resting = touching and leg == 0
+            if not first_resting and not feasible.reaches(
+                here_key, (goal.x, goal.y), leg_reach(goal)
+            ):
+                return self._unreachable(world, goal, table.shape, "body", plan.expansions)
             proof_key = (*body_key(table), self.settings.margin, goal.x, goal.y, leg_reach(goal))
             kept = self._proofs.get(proof_key)
             if kept is not None and (
-                leg > 0 or not touching or leaves_start(task, heuristic, out_of_start)
+                not first_resting or leaves_start(task, heuristic, out_of_start)
             ):
                 if kept.holds(task):
                     return self._unreachable(world, goal, table.shape, "search", plan.expansions)
@@ -376,12 +387,9 @@ class Planner:
                     return self._blocked(table.shape, plan.expansions)
                 return self._unreachable(world, goal, table.shape, "search", plan.expansions)
             # The budget ran out: go towards the best node if it is closer, unless the
-            # lethal layer proves the goal out of reach (the relaxed body's flood answers
-            # from the configurations where the body lies, and says nothing when it rests
-            # where none passes).
-            if not Feasibility(self.grid, table, inputs.values, self.settings.margin).reaches(
-                here_key, (goal.x, goal.y), leg_reach(goal)
-            ):
+            # lethal layer proves the goal out of reach (the relaxed body's flood, for a
+            # start resting closer than its margin, then the walk over valid motions).
+            if first_resting and not feasible.reaches(here_key, (goal.x, goal.y), leg_reach(goal)):
                 return self._unreachable(world, goal, table.shape, "body", plan.expansions)
             walk = lattice_reaches(task, heuristic, s.reach_states)
             if walk.proof is not None:
