@@ -18,10 +18,9 @@ import time
 
 import numpy as np
 
-from domain.navigation import NavigationSettings
+from domain.navigation import NavigationSettings, held_joints
 from domain.navigation.lattice.costs import kernel_table
 from domain.navigation.lattice.motions import motion_table
-from domain.navigation.strategy import held_joints
 from primitives.catalogue import FIG6_GOALS, lattice_specs
 from primitives.lattice import LATTICE_STOP, MAX_ATTEMPTS, learn_lattice
 from primitives.learners import LEARNERS, make_learner

@@ -22,6 +22,7 @@ from domain.navigation.lattice.motions import (
     Motion,
     MotionTable,
     body_key,
+    held_joints,
     motion_table,
     primitive_name,
 )
@@ -37,7 +38,7 @@ from domain.navigation.settings import (
     RecoverySettings,
     SearchSettings,
 )
-from domain.navigation.strategy import NavigationStrategy, held_joints
+from domain.navigation.strategy import NavigationStrategy
 from domain.navigation.warm import warm_tables
 
 __all__ = [

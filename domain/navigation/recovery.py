@@ -20,7 +20,7 @@ from numpy.typing import ArrayLike
 from domain.goal_order import LegGoal
 from domain.navigation.feasibility import Feasibility
 from domain.navigation.lattice.grid import LatticeGrid, compose
-from domain.navigation.lattice.motions import HeadView, capsule_samples, motion_table
+from domain.navigation.lattice.motions import HeadView, capsule_samples, held_joints, motion_table
 from domain.navigation.plan import leg_reach
 from domain.navigation.settings import NavigationSettings, RecoverySettings
 from domain.world import WorldModel
@@ -207,8 +207,7 @@ def reshape_options(
         ]
         if not sweep_keeps_clear(world, start, bodies, settings.margin):
             continue
-        joints_to = (float(target[0]), float(target[1]), float(target[2]))
-        table = motion_table(library, name, joints_to, settings, view)
+        table = motion_table(library, name, held_joints(shape_named(name).joints), settings, view)
         if table is None:
             continue
         c = table.centroid(start)

@@ -28,7 +28,7 @@ import numpy as np
 
 from domain.navigation.guard import Lookahead
 from domain.navigation.lattice.grid import relative
-from domain.navigation.lattice.motions import HeadView, MotionTable, motion_table
+from domain.navigation.lattice.motions import HeadView, MotionTable, held_joints, motion_table
 from domain.navigation.lattice.pddl import lattice_domain_text
 from domain.navigation.plan import Failure, Plan, PlanAction, PlanRequest
 from domain.navigation.planner import Planner
@@ -51,13 +51,6 @@ class Running:
     left: float
     started: float | None = None  # model time of its first tick (a gait's clock)
     command: Command | None = None  # every tick's (the move's control does not change)
-
-
-def held_joints(joints: Sequence[float]) -> tuple[float, float, float]:
-    """The joint angles a body's lattice is made for: the sensed ones to 0.05 rad (the
-    footprint of the real body; one motion table per rounded shape)."""
-    a, b, c = (round(v / 0.05) * 0.05 for v in joints)
-    return (a, b, c)
 
 
 class NavigationStrategy:

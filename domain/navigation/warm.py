@@ -9,9 +9,8 @@ import numpy as np
 from domain.navigation.feasibility import Feasibility, body_rows
 from domain.navigation.lattice.costs import kernel_table
 from domain.navigation.lattice.grid import LatticeGrid
-from domain.navigation.lattice.motions import HeadView, motion_table
+from domain.navigation.lattice.motions import HeadView, held_joints, motion_table
 from domain.navigation.settings import NavigationSettings
-from domain.navigation.strategy import held_joints
 from primitives.library import Library
 from primitives.shapes import shape_named
 from sim.world import Bounds

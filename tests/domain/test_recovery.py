@@ -15,6 +15,7 @@ import pytest
 from app.missions.spec import load_mission
 from domain.navigation import (
     Failure,
+    NavigationStrategy,
     Planner,
     PlanRequest,
     back_off,
@@ -23,6 +24,7 @@ from domain.navigation import (
     reshape_options,
     spin,
 )
+from domain.navigation.lattice import motions
 from domain.navigation.recovery import primitive_clear, sweep_keeps_clear
 from domain.world import WorldModel
 from primitives.shapes import SHAPES
@@ -126,3 +128,18 @@ def test_a_zigzag_body_that_cannot_enter_a_pocket_is_offered_the_straight_shape(
     # A goal no shape reaches (inside the pocket's back wall): nothing to change into.
     walled = legs([(-2.6, 0.0)])
     assert reshape_options(LIB, "zigzag", zigzag, world, pose, walled, SETTINGS) == []
+
+
+def test_reshape_options_read_the_tables_the_planner_plans_with() -> None:
+    """Every shape the recovery weighs is checked on the motion table of its held joints,
+    the one the strategy (and a warm worker) already has: weighing them makes no table."""
+    spec = load_mission(POCKET)
+    world = WorldModel(spec.bounds.bounds(), [o for o in spec.world_obstacles() if o.known])
+    goals = legs([(g.x, g.y) for g in spec.goals])
+    pose = (spec.start.x, spec.start.y, spec.start.psi)
+    strategy = NavigationStrategy(LIB, Planner(world.bounds, SETTINGS))
+    for shape in LIB.lattice_shapes():
+        strategy.table_for(shape, SHAPES[shape].joints)
+    made = len(motions._TABLES)
+    reshape_options(LIB, "zigzag", SHAPES["zigzag"].joints, world, pose, goals, SETTINGS)
+    assert len(motions._TABLES) == made

@@ -26,6 +26,7 @@ of the body as it bends along the cycle (its new cells: the resting body's, see 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
@@ -525,6 +526,14 @@ def _first_cover_and_sight(  # pragma: no cover - compiled
             out[count, 2] = 1 if sight[cell] >= cover[cell] else 0
             count += 1
     return out
+
+
+def held_joints(joints: Sequence[float]) -> tuple[float, float, float]:
+    """The joint angles a body's lattice is made for: the sensed ones to 0.05 rad (the
+    footprint of the real body; one motion table per rounded shape: every caller passes
+    these to ``motion_table``, so that all find the same table of a shape)."""
+    a, b, c = (round(v / 0.05) * 0.05 for v in joints)
+    return (a, b, c)
 
 
 _TABLES: dict[tuple[Any, ...], tuple[tuple[Primitive, ...], MotionTable | None]] = {}
