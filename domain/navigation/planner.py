@@ -82,8 +82,9 @@ class Planner:
         self._caches: dict[tuple[Any, ...], MotionCache] = {}
         self._maps: dict[tuple[Any, ...], Array] = {}
         # Per body, margin and goal: the last proof that the goal is out of reach (its walk's
-        # states that could reach it), which a later replan's start may still be cut off by.
-        self._proofs: dict[tuple[Any, ...], GoalProof] = {}
+        # states that could reach it), which a later replan's start may still be cut off by,
+        # with the motion table it was found on (a proof holds for that table's motions only).
+        self._proofs: dict[tuple[Any, ...], tuple[MotionTable, GoalProof]] = {}
         # The last start's table: a replan asks for it for the check of the start and for
         # the first leg.
         self._start: tuple[MotionTable, Key, Array, tuple[KernelTable, bool]] | None = None
@@ -353,7 +354,8 @@ class Planner:
             ):
                 return self._unreachable(world, goal, table.shape, "body", plan.expansions)
             proof_key = (*body_key(table), self.settings.margin, goal.x, goal.y, leg_reach(goal))
-            kept = self._proofs.get(proof_key)
+            table_proof = self._proofs.get(proof_key)
+            kept = table_proof[1] if table_proof and table_proof[0] is table else None
             if kept is not None and (
                 not first_resting or leaves_start(task, heuristic, out_of_start)
             ):
@@ -361,7 +363,7 @@ class Planner:
                     return self._unreachable(world, goal, table.shape, "search", plan.expansions)
                 again = goal_side_proof(task, REPROOF_GROWTH * kept.states + 1)
                 if again is not None:
-                    self._keep_proof(proof_key, again)
+                    self._keep_proof(proof_key, table, again)
                     return self._unreachable(world, goal, table.shape, "search", plan.expansions)
                 del self._proofs[proof_key]  # the goal's side grew or met the start: search
             found = searches.run(
@@ -393,7 +395,7 @@ class Planner:
                 return self._unreachable(world, goal, table.shape, "body", plan.expansions)
             walk = lattice_reaches(task, heuristic, s.reach_states)
             if walk.proof is not None:
-                self._keep_proof(proof_key, walk.proof)
+                self._keep_proof(proof_key, table, walk.proof)
             if walk.reaches is False:
                 if touching and leg == 0 and walk.side == "start" and walk.met <= out_of_start:
                     return self._blocked(table.shape, plan.expansions)
@@ -423,13 +425,13 @@ class Planner:
             )
         return plan
 
-    def _keep_proof(self, key: tuple[Any, ...], proof: GoalProof) -> None:
+    def _keep_proof(self, key: tuple[Any, ...], table: MotionTable, proof: GoalProof) -> None:
         """Keep a goal's proof of being out of reach (the newest last; the oldest goes past
         ``PROOFS_KEPT``)."""
         self._proofs.pop(key, None)
         if len(self._proofs) >= PROOFS_KEPT:
             del self._proofs[next(iter(self._proofs))]
-        self._proofs[key] = proof
+        self._proofs[key] = (table, proof)
 
     @staticmethod
     def _blocked(shape: str, expansions: int) -> Failure:
