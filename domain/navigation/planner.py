@@ -85,6 +85,10 @@ class Planner:
         # states that could reach it), which a later replan's start may still be cut off by,
         # with the motion table it was found on (a proof holds for that table's motions only).
         self._proofs: dict[tuple[Any, ...], tuple[MotionTable, GoalProof]] = {}
+        # Per goal, how many states its last proof found (whichever body's): another body is
+        # walked from the goal's side first too, once, within a few times that.
+        self._enclosed: dict[tuple[float, float, float], int] = {}
+        self._walked: set[tuple[Any, ...]] = set()  # (body, goal)s whose such walk did not prove
         # The last start's table: a replan asks for it for the check of the start and for
         # the first leg.
         self._start: tuple[MotionTable, Key, Array, tuple[KernelTable, bool]] | None = None
@@ -353,19 +357,28 @@ class Planner:
                 here_key, (goal.x, goal.y), leg_reach(goal)
             ):
                 return self._unreachable(world, goal, table.shape, "body", plan.expansions)
-            proof_key = (*body_key(table), self.settings.margin, goal.x, goal.y, leg_reach(goal))
+            # A goal proven out of reach before: this body's proof, if it still holds, or its
+            # side walked first (a few times the states the last proof had), before a search
+            # that would spend its budget outside the enclosure.
+            goal_key = (goal.x, goal.y, leg_reach(goal))
+            proof_key = (*body_key(table), self.settings.margin, *goal_key)
             table_proof = self._proofs.get(proof_key)
             kept = table_proof[1] if table_proof and table_proof[0] is table else None
-            if kept is not None and (
-                not first_resting or leaves_start(task, heuristic, out_of_start)
+            bound = kept.states if kept is not None else self._enclosed.get(goal_key)
+            if (
+                bound is not None
+                and (kept is not None or proof_key not in self._walked)
+                and (not first_resting or leaves_start(task, heuristic, out_of_start))
             ):
-                if kept.holds(task):
+                if kept is not None and kept.holds(task):
                     return self._unreachable(world, goal, table.shape, "search", plan.expansions)
-                again = goal_side_proof(task, REPROOF_GROWTH * kept.states + 1)
+                again = goal_side_proof(task, REPROOF_GROWTH * bound + 1)
                 if again is not None:
                     self._keep_proof(proof_key, table, again)
                     return self._unreachable(world, goal, table.shape, "search", plan.expansions)
-                del self._proofs[proof_key]  # the goal's side grew or met the start: search
+                # the goal's side grew or met the start: the search answers from now on
+                self._proofs.pop(proof_key, None)
+                self._walked.add(proof_key)
             found = searches.run(
                 task,
                 heuristic,
@@ -426,12 +439,17 @@ class Planner:
         return plan
 
     def _keep_proof(self, key: tuple[Any, ...], table: MotionTable, proof: GoalProof) -> None:
-        """Keep a goal's proof of being out of reach (the newest last; the oldest goes past
-        ``PROOFS_KEPT``)."""
+        """Keep a goal's proof of being out of reach for ``table`` (the newest last; the oldest
+        goes past ``PROOFS_KEPT``) and how many states it found, for the goal (``key``'s last
+        three: x, y, reach)."""
         self._proofs.pop(key, None)
         if len(self._proofs) >= PROOFS_KEPT:
             del self._proofs[next(iter(self._proofs))]
         self._proofs[key] = (table, proof)
+        if len(self._enclosed) >= PROOFS_KEPT:
+            self._enclosed.clear()
+        self._enclosed[key[-3:]] = proof.states
+        self._walked.discard(key)
 
     @staticmethod
     def _blocked(shape: str, expansions: int) -> Failure:

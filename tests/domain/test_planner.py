@@ -23,7 +23,7 @@ from domain.world import WorldModel
 from primitives.library import Library
 from sim.obstacles import Circle, rectangle
 from sim.world import Bounds
-from tests.domain.lattice_scenes import LIB, SETTINGS, STRAIGHT, legs, plan
+from tests.domain.lattice_scenes import ARC, LIB, SETTINGS, STRAIGHT, legs, plan
 from tests.domain.test_feasibility import BOX
 
 ARENA = Bounds(-2, 2, -2, 2)
@@ -121,8 +121,9 @@ def test_a_goal_in_a_room_the_body_cannot_enter_is_proved_from_the_rooms_side(do
 
 def test_a_goal_proved_out_of_reach_stays_proved_while_the_clearance_only_falls() -> None:
     """The room's proof (its side's states that could reach the goal) answers a later replan
-    from elsewhere without a search, in the same world or one with more in it; where the
-    clearance rose (a wider door), or from a start inside the room, the search answers."""
+    from elsewhere without a search, in the same world or one with more in it, and leads
+    another body's replan to walk the room's side first; where the clearance rose (a wider
+    door), or from a start inside the room, the search answers."""
     settings = dataclasses.replace(
         SETTINGS, search=SearchSettings(expansions=300, reach_states=20_000)
     )
@@ -139,6 +140,10 @@ def test_a_goal_proved_out_of_reach_stays_proved_while_the_clearance_only_falls(
     more = WorldModel(bounds, [*room(0.17), Circle(-3.5, -2.0, 0.3)], settings.costmap)
     crowded = again(more, (-3.0, 0.5, 0.0))
     assert (crowded.kind, crowded.expansions) == ("unreachable", 0)
+    # Another body: its own side of the goal walked first, and proved without a search too.
+    arc = p.plan(PlanRequest((-3.0, 0.0, 0.0), ARC, goal, True, world))
+    assert (arc.kind, arc.expansions) == ("unreachable", 0), arc
+    assert "arc primitives" in arc.reason
     # Resting against a wall it can move off, the start is cut off all the same; wedged
     # where its own motions lead nowhere, it is blocked, as without the proof.
     touching = WorldModel(
