@@ -85,10 +85,9 @@ class Planner:
         # states that could reach it), which a later replan's start may still be cut off by,
         # with the motion table it was found on (a proof holds for that table's motions only).
         self._proofs: dict[tuple[Any, ...], tuple[MotionTable, GoalProof]] = {}
-        # Per goal, how many states its last proof found (whichever body's): another body is
-        # walked from the goal's side first too, once, within a few times that.
-        self._enclosed: dict[tuple[float, float, float], int] = {}
-        self._walked: set[tuple[Any, ...]] = set()  # (body, goal)s whose such walk did not prove
+        # (body, goal)s walked from the goal's side on another body's proof without a proof of
+        # their own: the search answers for them until one comes.
+        self._walked: set[tuple[Any, ...]] = set()
         # The last start's table: a replan asks for it for the check of the start and for
         # the first leg.
         self._start: tuple[MotionTable, Key, Array, tuple[KernelTable, bool]] | None = None
@@ -357,28 +356,9 @@ class Planner:
                 here_key, (goal.x, goal.y), leg_reach(goal)
             ):
                 return self._unreachable(world, goal, table.shape, "body", plan.expansions)
-            # A goal proven out of reach before: this body's proof, if it still holds, or its
-            # side walked first (a few times the states the last proof had), before a search
-            # that would spend its budget outside the enclosure.
-            goal_key = (goal.x, goal.y, leg_reach(goal))
-            proof_key = (*body_key(table), self.settings.margin, *goal_key)
-            table_proof = self._proofs.get(proof_key)
-            kept = table_proof[1] if table_proof and table_proof[0] is table else None
-            bound = kept.states if kept is not None else self._enclosed.get(goal_key)
-            if (
-                bound is not None
-                and (kept is not None or proof_key not in self._walked)
-                and (not first_resting or leaves_start(task, heuristic, out_of_start))
-            ):
-                if kept is not None and kept.holds(task):
-                    return self._unreachable(world, goal, table.shape, "search", plan.expansions)
-                again = goal_side_proof(task, REPROOF_GROWTH * bound + 1)
-                if again is not None:
-                    self._keep_proof(proof_key, table, again)
-                    return self._unreachable(world, goal, table.shape, "search", plan.expansions)
-                # the goal's side grew or met the start: the search answers from now on
-                self._proofs.pop(proof_key, None)
-                self._walked.add(proof_key)
+            proof_key = (*body_key(table), self.settings.margin, goal.x, goal.y, leg_reach(goal))
+            if self._proven_before(task, proof_key, heuristic, first_resting, out_of_start):
+                return self._unreachable(world, goal, table.shape, "search", plan.expansions)
             found = searches.run(
                 task,
                 heuristic,
@@ -398,7 +378,7 @@ class Planner:
                 plan.actions += actions
                 continue
             if found.status == "exhausted":
-                if touching and leg == 0 and found.expansions <= out_of_start:
+                if first_resting and found.expansions <= out_of_start:
                     return self._blocked(table.shape, plan.expansions)
                 return self._unreachable(world, goal, table.shape, "search", plan.expansions)
             # The budget ran out: go towards the best node if it is closer, unless the
@@ -410,7 +390,7 @@ class Planner:
             if walk.proof is not None:
                 self._keep_proof(proof_key, table, walk.proof)
             if walk.reaches is False:
-                if touching and leg == 0 and walk.side == "start" and walk.met <= out_of_start:
+                if first_resting and walk.side == "start" and walk.met <= out_of_start:
                     return self._blocked(table.shape, plan.expansions)
                 return self._unreachable(world, goal, table.shape, "search", plan.expansions)
             start_h = heuristic(_Root(task.initial_state))
@@ -438,17 +418,51 @@ class Planner:
             )
         return plan
 
+    def _proven_before(
+        self,
+        task: LatticeTask,
+        key: tuple[Any, ...],
+        heuristic: CostHeuristic,
+        first_resting: bool,
+        out_of_start: int,
+    ) -> bool:
+        """Whether a goal proven out of reach before (``key``: body, margin, goal) is proven
+        again without a search: this table's kept proof still holds, or its side of the goal,
+        walked first (within a few times the states the last proof of the goal found, this
+        body's or another's), runs out. A start resting closer than its margin asks only when
+        its own side holds more than ``out_of_start`` states (else the search tells it is
+        blocked)."""
+        entry = self._proofs.get(key)
+        kept = entry[1] if entry is not None and entry[0] is task.table else None
+        if kept is not None:
+            bound = kept.states
+        elif key in self._walked:
+            return False
+        else:  # the newest proof of the same goal (the key's last three: x, y, reach)
+            goal = [p.states for k, (_, p) in self._proofs.items() if k[-3:] == key[-3:]]
+            if not goal:
+                return False
+            bound = goal[-1]
+        if first_resting and not leaves_start(task, heuristic, out_of_start):
+            return False
+        if kept is not None and kept.holds(task):
+            return True
+        again = goal_side_proof(task, REPROOF_GROWTH * bound + 1)
+        if again is not None:
+            self._keep_proof(key, task.table, again)
+            return True
+        # the goal's side grew or met the start: the search answers from now on
+        self._proofs.pop(key, None)
+        self._walked.add(key)
+        return False
+
     def _keep_proof(self, key: tuple[Any, ...], table: MotionTable, proof: GoalProof) -> None:
         """Keep a goal's proof of being out of reach for ``table`` (the newest last; the oldest
-        goes past ``PROOFS_KEPT``) and how many states it found, for the goal (``key``'s last
-        three: x, y, reach)."""
+        goes past ``PROOFS_KEPT``)."""
         self._proofs.pop(key, None)
         if len(self._proofs) >= PROOFS_KEPT:
             del self._proofs[next(iter(self._proofs))]
         self._proofs[key] = (table, proof)
-        if len(self._enclosed) >= PROOFS_KEPT:
-            self._enclosed.clear()
-        self._enclosed[key[-3:]] = proof.states
         self._walked.discard(key)
 
     @staticmethod

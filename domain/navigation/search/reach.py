@@ -97,21 +97,23 @@ def goal_side_proof(task: LatticeTask, states: int) -> GoalProof | None:
     it stood: its side was small then and, unless the clearance rose, stays small. Raises
     ``SearchStopped`` for a cancel or the deadline."""
     back = _Back(task, states)
-    while back.step() == RUNNING:
-        stop_if_due(task.cancel, task.deadline)
-    if back.status != NONE:
+    if _run_out(back, task) != NONE:
         return None
-    return GoalProof(task.inputs.values.copy(), back.seen)
+    return back.proof()
 
 
 def leaves_start(task: LatticeTask, heuristic: CostHeuristic, states: int) -> bool:
     """Whether the start's side holds more than ``states`` states (or the goal): the body
     gets out of where it rests, rather than only into the few states its own motions reach.
     Raises ``SearchStopped`` for a cancel or the deadline."""
-    forward = _Forward(task, heuristic, states)
-    while forward.step() == RUNNING:
+    return _run_out(_Forward(task, heuristic, states), task) != NONE
+
+
+def _run_out(walk: _Walk, task: LatticeTask) -> int:
+    """Step ``walk`` until it ends (checking the task's cancel and deadline between chunks)."""
+    while walk.step() == RUNNING:
         stop_if_due(task.cancel, task.deadline)
-    return forward.status != NONE
+    return walk.status
 
 
 def lattice_reaches(task: LatticeTask, heuristic: CostHeuristic, states: int) -> Reach:
@@ -131,8 +133,7 @@ def lattice_reaches(task: LatticeTask, heuristic: CostHeuristic, states: int) ->
         if back.step() in (REACHED, NONE):
             if back.status == REACHED:
                 return Reach(True, "goal", forward.met)
-            proof = GoalProof(task.inputs.values.copy(), back.seen)
-            return Reach(False, "goal", forward.met, proof)
+            return Reach(False, "goal", forward.met, back.proof())
         if forward.status == back.status == OVER:
             return Reach(None, "goal", forward.met)
 
@@ -204,6 +205,10 @@ class _Back(_Walk):
         K = task.grid.settings.orientations
         self.preds = predecessors(np.asarray(task.kt.deltas, dtype=np.int64), K)
         self.fanout = int(self.preds[2].max())
+
+    def proof(self) -> GoalProof:
+        """The walk's states, once it ran out (``NONE``), as the goal's proof."""
+        return GoalProof(self.task.inputs.values.copy(), self.seen)
 
     def _chunk(self) -> int:
         task, kt, inputs = self.task, self.task.kt, self.task.inputs
