@@ -3,7 +3,7 @@ periodic gait's), as fast as possible, checked against what it expects (bench/RE
 targets: accuracy, contacts, model time / wall time).
 
     python -m bench.missions [--only PATTERN] [--set DIR] [--noise SIGMA] [--repeat N] [--workers 2]
-        [--cap 120] [--server] [--load]
+        [--cap 120] [--server] [--load] [--json FILE]
 
 A mission is ``ok`` when it ends as its ``expect`` says (``examples/`` without one: succeeded)
 and, for a success, every goal is within its tolerance and nothing known was touched (known
@@ -33,7 +33,7 @@ import traceback
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ProcessPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
-from dataclasses import dataclass, field
+from dataclasses import asdict, dataclass, field
 from datetime import datetime
 from pathlib import Path
 from typing import Any, TypeVar
@@ -499,6 +499,12 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--load", action="store_true", help="keep another core busy meanwhile")
     parser.add_argument(
+        "--json",
+        metavar="FILE",
+        type=Path,
+        help="also write every row (with each replan's latency) to FILE as JSON",
+    )
+    parser.add_argument(
         "--set",
         action="append",
         metavar="DIR",
@@ -531,6 +537,9 @@ def main(argv: list[str] | None = None) -> int:
             load.terminate()  # the process this bench started
             load.join()
     print("\n".join(summary(rows)))
+    if args.json is not None:
+        fields = [{**asdict(r), "ratio": r.ratio, "cpu_ratio": r.cpu_ratio} for r in rows]
+        args.json.write_text(json.dumps(fields, indent=1))
     return 0
 
 

@@ -21,6 +21,7 @@ while the sensors read again). Each run is a ``recovery`` event in the mission's
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 
@@ -194,6 +195,9 @@ class Recovery(MissionBehaviour):
     def done(self) -> None:
         """What the recovery does when its motions are over (before the plan runs again)."""
 
+    def stopped_by_contact(self) -> None:
+        """What the recovery learns from a contact stopping its motions."""
+
     def update(self) -> Status:
         ctx = self.ctx
         if not self.applicable:
@@ -201,6 +205,7 @@ class Recovery(MissionBehaviour):
             return Status.FAILURE
         if self.ran and ctx.contact is not None:
             self.feedback_message = "stopped by a contact"
+            self.stopped_by_contact()
             self._finish("stopped by a contact")
             return Status.SUCCESS  # the plan's pipeline fails on the contact: back off next
         while self.steps and self.steps[0].left <= 1e-9:
@@ -246,6 +251,16 @@ class BackOff(Recovery):
     again from where the body stopped (motions out of there may keep as close as it is)."""
 
     what = "back-off"
+    STOPPED_KEPT = 8  # back-offs a contact stopped, remembered with where they began
+
+    def __init__(self, name: str, namespace: str) -> None:
+        super().__init__(name, namespace)
+        # (where a back-off began, its first move) for those a contact stopped in that move:
+        # from the same place (within the recoveries' settle distance) the move presses into
+        # what the body touches, and the next back-off begins with another
+        self.stopped: list[tuple[tuple[float, float], str]] = []
+        self.began: tuple[float, float] = (0.0, 0.0)
+        self.first: str | None = None  # the first move of the back-off under way
 
     def applies(self) -> bool:
         return self.ctx.contact is not None or self.ctx.plan_failure == "start_blocked"
@@ -254,6 +269,8 @@ class BackOff(Recovery):
         ctx = self.ctx
         contact = ctx.contact
         ctx.contact = None  # dealt with here (a new one is a new contact)
+        x, y = float(ctx.pose[0]), float(ctx.pose[1])
+        near = ctx.settings.recovery.settle_distance
         moves = navigation.back_off(
             ctx.library,
             ctx.shape,
@@ -263,10 +280,16 @@ class BackOff(Recovery):
             contact.side if contact is not None else None,
             contact.part if contact is not None else None,
             ctx.settings,
+            {m for (px, py), m in self.stopped if math.hypot(px - x, py - y) < near},
         )
+        self.began, self.first = (x, y), moves[0].id if moves else None
         if not moves:
             return [] if contact is not None else None
         return [self.run(m) for m in moves]
+
+    def stopped_by_contact(self) -> None:
+        if self.first is not None and self.steps and self.steps[0].label == self.first:
+            self.stopped = [*self.stopped[-(self.STOPPED_KEPT - 1) :], (self.began, self.first)]
 
 
 class SpinToSense(Recovery):

@@ -147,21 +147,41 @@ class Feasibility:
             return True
         limit = reach + self.grid.settings.resolution * math.sqrt(0.5)
         if compiled if compiled is not None else flood.AVAILABLE:
-            centres = self.grid.centres.reshape(self.grid.nx, self.grid.ny, 2)
-            found = flood.flood_reaches(
-                self.clear,
-                *self.rows,
-                np.asarray(self.table.heads, dtype=float),
-                np.ascontiguousarray(centres[:, 0, 0]),
-                np.ascontiguousarray(centres[0, :, 1]),
-                goal,
-                limit,
-                starts,
-                self.flood_budget,
-            )
+            found = self._flood(starts, goal, limit, self.flood_budget)
             if found is not None:
                 return found
         return self._labelled_reaches(starts, goal, limit)
+
+    def flood_decides(
+        self, start: Key, goal: tuple[float, float], reach: float, budget: int
+    ) -> bool | None:
+        """``reaches`` by the flood alone within ``budget`` configurations: ``None`` when that
+        leaves it undecided (or no compiled flood runs here). A cheap question to ask before a
+        search: the flood decides a goal next door or one in a small pen at once, and spends
+        its budget only where the two sides are large (a maze), where the search answers."""
+        starts = self._starts(start)
+        if starts.size == 0:
+            return True
+        if not flood.AVAILABLE:
+            return None
+        limit = reach + self.grid.settings.resolution * math.sqrt(0.5)
+        return self._flood(starts, goal, limit, budget)
+
+    def _flood(
+        self, starts: NDArray[np.int64], goal: tuple[float, float], limit: float, budget: int
+    ) -> bool | None:
+        centres = self.grid.centres.reshape(self.grid.nx, self.grid.ny, 2)
+        return flood.flood_reaches(
+            self.clear,
+            *self.rows,
+            np.asarray(self.table.heads, dtype=float),
+            np.ascontiguousarray(centres[:, 0, 0]),
+            np.ascontiguousarray(centres[0, :, 1]),
+            goal,
+            limit,
+            starts,
+            budget,
+        )
 
     def _labelled_reaches(
         self, starts: NDArray[np.int64], goal: tuple[float, float], limit: float

@@ -349,12 +349,19 @@ class Planner:
             out_of_start = 1 + len(table.motions)
             # The relaxed body's flood is a proof in about a millisecond that a search would
             # give only after exhausting every state it reaches or its whole budget: asked
-            # first. (A start resting closer than its margin asks it after the search, which
-            # tells a body blocked where it rests from a goal out of reach.)
+            # first, within a few milliseconds' worth (``flood_first``: where both sides are
+            # large the search answers sooner, and the whole check follows a spent budget).
+            # A start resting closer than its margin asks it after the search, which tells a
+            # body blocked where it rests from a goal out of reach.
             first_resting = touching and leg == 0
-            if not first_resting and not feasible.reaches(
-                here_key, (goal.x, goal.y), leg_reach(goal)
-            ):
+            flooded = (
+                None
+                if first_resting
+                else feasible.flood_decides(
+                    here_key, (goal.x, goal.y), leg_reach(goal), s.flood_first
+                )
+            )
+            if flooded is False:
                 return self._unreachable(world, goal, table.shape, "body", plan.expansions)
             proof_key = (*body_key(table), self.settings.margin, goal.x, goal.y, leg_reach(goal))
             if self._proven_before(task, proof_key, heuristic, first_resting, out_of_start):
@@ -366,6 +373,7 @@ class Planner:
                 s.weight,
                 s.expansions,
                 None if self.heuristic == "cost" else self.heuristic,
+                stall=searches.Stall(s.stall_after, s.stalled_weight),
             )
             plan.expansions += found.expansions
             plan.legs.append(task)
@@ -382,9 +390,11 @@ class Planner:
                     return self._blocked(table.shape, plan.expansions)
                 return self._unreachable(world, goal, table.shape, "search", plan.expansions)
             # The budget ran out: go towards the best node if it is closer, unless the
-            # lethal layer proves the goal out of reach (the relaxed body's flood, for a
-            # start resting closer than its margin, then the walk over valid motions).
-            if first_resting and not feasible.reaches(here_key, (goal.x, goal.y), leg_reach(goal)):
+            # lethal layer proves the goal out of reach (the relaxed body's whole check,
+            # unless its flood decided before the search, then the walk over valid motions).
+            if flooded is None and not feasible.reaches(
+                here_key, (goal.x, goal.y), leg_reach(goal)
+            ):
                 return self._unreachable(world, goal, table.shape, "body", plan.expansions)
             walk = lattice_reaches(task, heuristic, s.reach_states)
             if walk.proof is not None:

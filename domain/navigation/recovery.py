@@ -12,7 +12,7 @@ closer than it is.
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Collection, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -86,10 +86,13 @@ def back_off(
     side: str | None,
     part: int | None,
     settings: NavigationSettings,
+    stopped: Collection[str] = (),
 ) -> list[Primitive]:
     """Up to ``back_off_steps`` of the shape's shortest translations away from ``side`` of
     ``part`` (``None``: from whatever is closest), each checked from where the previous one
-    leaves the body; the first free direction nearest to straight away is taken."""
+    leaves the body; the first free direction nearest to straight away is taken, except, as
+    the first, the translations in ``stopped`` (a contact stopped them from here: they press
+    into what the body touches, whatever the world model shows of it)."""
     steps = [e for e in library.lattice(shape) if e.turn == 0.0 and e.end_pose is not None]
     if not steps:
         return []
@@ -104,9 +107,11 @@ def back_off(
             away = 180  # the tail's end touched: go head first
     out: list[Primitive] = []
     here = np.asarray(pose, dtype=float)
-    for _ in range(settings.recovery.back_off_steps):
+    for step in range(settings.recovery.back_off_steps):
         ranked = sorted(short, key=lambda e: abs(math.remainder(_angle(e) - away, 360.0)))
         for entry in ranked:
+            if step == 0 and entry.id in stopped:
+                continue
             if primitive_clear(world, here, joints, entry, settings.margin, settings.touch_deeper):
                 out.append(entry)
                 assert entry.end_pose is not None

@@ -81,6 +81,11 @@ class SearchSettings:
 
     weight: float = 2.0
     """f = g + weight * h: above 1 trades optimality for fewer expansions"""
+    stalled_weight: float = 5.0
+    """the weight a search goes on at once ``stall_after`` expansions found no plan (every
+    open entry re-keyed: ``search.kernel.Stall``); ``weight`` to keep one weight"""
+    stall_after: int = 5_000
+    """expansions at the first weight before a search goes on at ``stalled_weight``"""
     expansions: int = 50_000
     """expansions per leg before the search returns its best node (a budget, not seconds: the
     same mission and seed plan the same on any machine)"""
@@ -90,6 +95,10 @@ class SearchSettings:
     start_free: float = 0.15
     """metres round the start centroid the heuristic's map always lets through (the body may
     rest closer to something than its margin: it must still be able to leave)"""
+    flood_first: int = 20_000
+    """configurations the relaxed body's flood (``navigation.feasibility``) may meet before a
+    leg's search: a goal it proves out of reach needs no search; one it leaves undecided (two
+    large sides, as in a maze) is searched, and the whole check follows a spent budget"""
     reach_states: int = 1_000_000
     """states the lattice's own connectivity check (``search.reach``) may walk from each side
     (the start's and the goal's, in turns) when the budget ran out, before "no plan within the
@@ -101,12 +110,16 @@ class SearchSettings:
 
     def __post_init__(self) -> None:
         _check_finite(self, "search settings")
-        if not self.weight >= 1:
-            raise ValueError("search settings: weight must be >= 1")
+        if not 1 <= self.weight <= self.stalled_weight:
+            raise ValueError("search settings: 1 <= weight <= stalled_weight")
+        if self.stall_after < 1:
+            raise ValueError("search settings: stall_after must be >= 1")
         if self.expansions < 1 or self.progress < 0:
             raise ValueError("search settings: expansions >= 1 and progress >= 0")
-        if self.exported_states < 1 or self.reach_states < 1:
-            raise ValueError("search settings: exported_states and reach_states must be >= 1")
+        if min(self.exported_states, self.reach_states, self.flood_first) < 1:
+            raise ValueError(
+                "search settings: exported_states, reach_states and flood_first must be >= 1"
+            )
 
 
 @dataclass(frozen=True)

@@ -25,6 +25,7 @@ from domain.navigation import RecoverySettings
 from primitives.library import load_bundled
 
 LIB = load_bundled()
+EXAMPLES = Path(__file__).parents[2] / "examples"
 HARD = Path(__file__).parents[2] / "examples" / "hard"
 RECOVERIES = ("back off", "sense and retry", "spin to sense", "reshape", "clear stale evidence")
 
@@ -99,6 +100,29 @@ def test_a_mission_that_touches_something_backs_off_and_still_reaches_its_goal()
         for e in result.events
     ]
     assert {"recovery", "recovery_done"} <= {getattr(f, "kind", None) for f in frames}
+
+
+def test_a_back_off_a_contact_stopped_begins_with_another_move_from_there() -> None:
+    """A tail touches a post it never saw, in a corridor, and the first back-off's first move
+    presses into the post again (the world model does not hold it where it is): the next
+    back-off from there begins with another move, and the mission goes on to its goal."""
+    spec = load_mission(EXAMPLES / "untuned" / "corridor-20-028-noisy-clutter.json")
+    result = MissionRunner(spec, LIB).run()
+    assert result.status == "succeeded", result.reason
+    events = result.events
+    backs = [i for i, e in enumerate(events) if e["kind"] == "recovery"]
+    stopped = [
+        i
+        for i in backs
+        if any(
+            e["kind"] == "recovery_done" and e["outcome"] == "stopped by a contact"
+            for e in events[i + 1 : i + 3]
+        )
+    ]
+    assert stopped, "the scene no longer has a back-off a contact stopped"
+    for i in stopped:
+        later = next(j for j in backs if j > i)
+        assert events[later]["moves"][0] != events[i]["moves"][0]
 
 
 def pocket_mission() -> tuple[MissionRunner, Any]:

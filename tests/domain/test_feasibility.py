@@ -184,3 +184,16 @@ def test_a_flood_over_budget_leaves_the_answer_to_the_labelling() -> None:
     assert check.reaches(start, outside, 0.08) and not check.reaches(start, inside, 0.08)
     check.flood_budget = 50  # too few to decide either: the labelling answers, the same
     assert check.reaches(start, outside, 0.08) and not check.reaches(start, inside, 0.08)
+
+
+@pytest.mark.skipif(not AVAILABLE, reason="numba kernels are off")
+def test_the_flood_within_a_small_budget_decides_or_says_it_cannot() -> None:
+    """What the planner asks before a search: the flood alone, within a few configurations.
+    A goal in a small pen is decided at once (the pen's side runs out); a goal across the
+    open arena is left undecided (``None``: the search answers), never answered wrongly."""
+    grid = LatticeGrid(Bounds(-1.5, 1.5, -1.5, 1.5), SETTINGS)
+    check = Feasibility(grid, STRAIGHT, clearance(grid, ring(0.9, 0.9, 0.45)), margin=0.03)
+    start, outside, inside = (10, 10, 0), (-1.0, 1.0), (0.9, 0.9)
+    assert check.flood_decides(start, inside, 0.08, budget=2_000) is False
+    assert check.flood_decides(start, outside, 0.08, budget=50) is None
+    assert check.flood_decides(start, outside, 0.08, budget=10**9) is True

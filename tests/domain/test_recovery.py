@@ -76,6 +76,20 @@ def test_back_off_from_a_wall_the_body_touches_moves_off_it() -> None:
         assert m.end_pose is not None and abs(m.end_pose[1]) < 0.01  # never into a wall
 
 
+def test_a_back_off_a_contact_stopped_is_not_begun_again_from_there() -> None:
+    """A contact stopped the first move of a back-off (what the body touches is not where
+    the world model shows it): from the same place the next back-off begins with another
+    translation, the nearest to straight away after it, still one that keeps clear."""
+    world = open_world()
+    first = back_off(LIB, "straight", STRAIGHT_JOINTS, world, POSE, "left", 3, SETTINGS)
+    again = back_off(
+        LIB, "straight", STRAIGHT_JOINTS, world, POSE, "left", 3, SETTINGS, {first[0].id}
+    )
+    assert again and again[0].id != first[0].id
+    assert again[0].end_pose is not None and again[0].end_pose[1] > 0  # still off the left side
+    assert primitive_clear(world, np.asarray(POSE), STRAIGHT_JOINTS, again[0], SETTINGS.margin)
+
+
 def test_spin_takes_the_largest_turn_that_keeps_clear() -> None:
     world = open_world()
     ccw = spin(LIB, "straight", STRAIGHT_JOINTS, world, POSE, SETTINGS, 1)

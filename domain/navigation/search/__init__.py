@@ -17,14 +17,14 @@ from domain.navigation.lattice.task import LatticeTask
 from domain.navigation.search import kernel
 from domain.navigation.search.cost_astar import Best, cost_astar_search
 from domain.navigation.search.heuristic import CostHeuristic
-from domain.navigation.search.kernel import Found
+from domain.navigation.search.kernel import Found, Stall
 from domain.pyperplan_adapter import HEURISTICS, SEARCHES, SearchStopped
 
 COST_SEARCH = "cost"
 SEARCH_NAMES = (COST_SEARCH, *SEARCHES)
 COMPLETE = {COST_SEARCH, "gbf", "astar", "wastar", "bfs"}  # no plan found: none exists
 
-__all__ = ["COST_SEARCH", "SEARCH_NAMES", "CostHeuristic", "Found", "run"]
+__all__ = ["COST_SEARCH", "SEARCH_NAMES", "CostHeuristic", "Found", "Stall", "run"]
 
 
 def run(
@@ -35,20 +35,26 @@ def run(
     budget: int,
     pyperplan_heuristic: str | None = None,
     compiled: bool | None = None,
+    stall: Stall | None = None,
 ) -> Found:
     """One leg's search. Raises ``SearchStopped`` for a cancel or the deadline. ``compiled``:
     force the kernel (True) or the Python cost search (False) for ``"cost"``; by default the
-    kernel when it can run."""
+    kernel when it can run. ``stall``: where the cost search's weight goes up (``Stall``;
+    pyperplan's searches keep theirs)."""
     if search == COST_SEARCH:
         use_kernel = compiled if compiled is not None else AVAILABLE
         if use_kernel and kernel.applies(task, heuristic):
-            return kernel.search(task, heuristic, weight, budget)
-        return _python_cost_search(task, heuristic, weight, budget)
+            return kernel.search(task, heuristic, weight, budget, stall)
+        return _python_cost_search(task, heuristic, weight, budget, stall)
     return _pyperplan_search(task, heuristic, search, budget, pyperplan_heuristic)
 
 
 def _python_cost_search(
-    task: LatticeTask, heuristic: CostHeuristic, weight: float, budget: int
+    task: LatticeTask,
+    heuristic: CostHeuristic,
+    weight: float,
+    budget: int,
+    stall: Stall | None = None,
 ) -> Found:
     best = Best()
 
@@ -59,7 +65,8 @@ def _python_cost_search(
     status, plan = "solved", None
     with no_cycle_collection():
         try:
-            plan = cost_astar_search(task, heuristic, weight, budget, best, restable)
+            at = None if stall is None else (stall.after, stall.weight)
+            plan = cost_astar_search(task, heuristic, weight, budget, best, restable, at)
             if plan is None:
                 status = "exhausted"
         except SearchStopped as stop:

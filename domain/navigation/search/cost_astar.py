@@ -47,11 +47,14 @@ def cost_astar_search(
     budget: int | None = None,
     best: Best | None = None,
     restable: Callable[[Any], bool] = lambda node: True,
+    stall: tuple[int, float] | None = None,
 ) -> list[Any] | None:
     """A plan (operators) for ``task`` found by weighted A* on action costs, or ``None`` when
     the reachable states run out. ``budget``: expansions before ``SearchStopped("timeout")``;
     ``best``: filled with the best expanded node; ``restable(node)``: whether the robot could
-    stop at a node (a best node must be one)."""
+    stop at a node (a best node must be one); ``stall`` (after, weight): once ``after``
+    expansions are spent, every open entry is re-keyed at ``weight`` and the search goes on
+    at it (``kernel.Stall``)."""
     open_list: list[tuple[float, float, int, Any]] = []
     state_cost = {task.initial_state: 0.0}
     closed: set[Any] = set()
@@ -62,6 +65,11 @@ def cost_astar_search(
     heapq.heappush(open_list, (root.g + weight * h0, h0, tiebreaker, root))
     expansions = 0
     while open_list:
+        if stall is not None and expansions >= stall[0]:
+            weight = stall[1]
+            open_list = [(n.g + weight * eh, eh, tie, n) for _, eh, tie, n in open_list]
+            heapq.heapify(open_list)
+            stall = None
         _, h, _, node = heapq.heappop(open_list)
         if node.state in closed or state_cost[node.state] != node.g:
             continue  # expanded already, or a cheaper path to it was found since

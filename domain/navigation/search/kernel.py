@@ -35,11 +35,25 @@ MAX_MOTIONS = 62  # motions per state a bitmask holds
 HEAP_WIDTH = 4  # an open-list entry: f, h, tiebreaker, node
 
 # Counters (``count``): nodes made, heap size, pushes (the tiebreaker), expansions, best node,
-# states expanded (recorded), the goal node.
-NODES, HEAP, TIE, EXPANSIONS, BEST, EXPANDED, GOAL = range(7)
-COUNTERS = 7
+# states expanded (recorded), the goal node, whether the weight went up (``Stall``).
+NODES, HEAP, TIE, EXPANSIONS, BEST, EXPANDED, GOAL, STALLED = range(8)
+COUNTERS = 8
+NEVER = 1 << 62  # expansions of a search that never stalls
 # What a chunk ended with.
 RUNNING, SOLVED, EXHAUSTED, OVER_BUDGET, NEED_ROOM = range(5)
+
+
+@dataclass(frozen=True)
+class Stall:
+    """A search that has spent ``after`` expansions without a plan goes on at ``weight``
+    (higher than its first): every open entry re-keyed at once, so the rest of the search
+    follows the heuristic more greedily. Expansions that many are where the heuristic
+    underestimates the way's costs most (a way round an obstacle the heuristic's cells do not
+    price as the body's sweep does): the plan's cost bound loosens to ``weight`` times the
+    best's, as an anytime search's first answer does, instead of the budget running out."""
+
+    after: int
+    weight: float
 
 
 @dataclass
@@ -127,10 +141,18 @@ class _Nodes:
         return out
 
 
-def search(task: LatticeTask, heuristic: CostHeuristic, weight: float, budget: int) -> Found:
-    """``cost_astar_search(task, heuristic, weight, budget)`` compiled (``applies`` says when
-    it can run). Raises ``SearchStopped`` for a cancel or the deadline; the budget ends the
-    search with its best node (``Found.plan`` ``None`` and ``best`` the way there)."""
+def search(
+    task: LatticeTask,
+    heuristic: CostHeuristic,
+    weight: float,
+    budget: int,
+    stall: Stall | None = None,
+) -> Found:
+    """``cost_astar_search(task, heuristic, weight, budget, stall=stall)`` compiled
+    (``applies`` says when it can run). Raises ``SearchStopped`` for a cancel or the deadline;
+    the budget ends the search with its best node (``Found.plan`` ``None`` and ``best`` the way
+    there)."""
+    stall_after, stall_weight = (NEVER, weight) if stall is None else (stall.after, stall.weight)
     grid, table = task.grid, task.table
     kt, inputs = task.kt, task.inputs
     start = task.start_number
@@ -149,7 +171,8 @@ def search(task: LatticeTask, heuristic: CostHeuristic, weight: float, budget: i
         while True:
             stop_if_due(task.cancel, task.deadline)
             status = _run(
-                CHUNK, budget, weight, start, start_bits, start_costs, near_states, dims,
+                CHUNK, budget, weight, stall_after, stall_weight, start, start_bits,
+                start_costs, near_states, dims,
                 inputs.values, inputs.geo, inputs.risk, inputs.blocked, inputs.flat,
                 kt.open_need, inputs.params, kt.check_unique, kt.check_unique_counts,
                 kt.check_cells, kt.check_needs, kt.check_fails, kt.check_points, kt.grouped,
@@ -242,8 +265,36 @@ def _pop(heap: Array, size: int) -> int:  # pragma: no cover - compiled
 
 
 @jit
+def _rekey(  # pragma: no cover - compiled
+    heap: Array, size: int, node_g: Array, weight: float
+) -> None:
+    """Every open entry's f at ``weight`` (g of its node + weight x its h), the heap rebuilt
+    bottom up."""
+    for e in range(size):
+        heap[e, 0] = node_g[int(heap[e, 3])] + weight * heap[e, 1]
+    for p in range((size - 2) // 4, -1, -1):
+        f, h, tie, node = heap[p, 0], heap[p, 1], heap[p, 2], heap[p, 3]
+        q = p
+        while True:
+            first = 4 * q + 1
+            if first >= size:
+                break
+            least = first
+            for c in range(first + 1, min(first + 4, size)):
+                if _before(heap, c, heap[least, 0], heap[least, 1], heap[least, 2]):
+                    least = c
+            if not _before(heap, least, f, h, tie):
+                break
+            heap[q, 0], heap[q, 1] = heap[least, 0], heap[least, 1]
+            heap[q, 2], heap[q, 3] = heap[least, 2], heap[least, 3]
+            q = least
+        heap[q, 0], heap[q, 1], heap[q, 2], heap[q, 3] = f, h, tie, node
+
+
+@jit
 def _run(  # pragma: no cover - compiled
-    chunk: int, budget: int, weight: float, start: int, start_bits: int, start_costs: Array,
+    chunk: int, budget: int, weight: float, stall_after: int, stall_weight: float, start: int,
+    start_bits: int, start_costs: Array,
     near_states: NDArray[np.int64], dims: NDArray[np.int64], values: Array, geo: Array,
     risk: Array, blocked: Array, flat: Array, open_need: float, params: Array,
     check_unique: Array, check_unique_counts: Array, check_cells: Array,
@@ -261,7 +312,8 @@ def _run(  # pragma: no cover - compiled
     exp_number: Array, exp_bits: Array, exp_costs: Array, exp_near: Array,
 ) -> int:  # fmt: skip
     """Up to ``chunk`` expansions (see the module's docstring); what it ended with. The first
-    call pushes the root (``count`` all zero)."""
+    call pushes the root (``count`` all zero). Once ``stall_after`` expansions are spent, the
+    open list is re-keyed at ``stall_weight`` and the search goes on at it (``Stall``)."""
     nx, ny = dims[0], dims[1]
     plane = nx * ny
     n_motions = check_segments.shape[1] - 1
@@ -279,10 +331,16 @@ def _run(  # pragma: no cover - compiled
         put(bk, bv, bs, start, 0)
         count[NODES] = 1
         count[HEAP] = _push(heap, 0, weight * h, h, 0, 0)
+    if count[STALLED]:
+        weight = stall_weight
     done = 0
     while count[HEAP] > 0:
         if done >= chunk:
             return RUNNING
+        if count[EXPANSIONS] >= stall_after and not count[STALLED]:
+            count[STALLED] = 1
+            weight = stall_weight
+            _rekey(heap, count[HEAP], node_g, weight)
         if (
             count[NODES] + n_motions + 1 > cap
             or count[EXPANDED] >= exp_number.shape[0]
