@@ -260,7 +260,7 @@ class BackOff(Recovery):
         # what the body touches, and the next back-off begins with another
         self.stopped: list[tuple[tuple[float, float], str]] = []
         self.began: tuple[float, float] = (0.0, 0.0)
-        self.first: str | None = None  # the first move of the back-off under way
+        self.first: _Step | None = None  # the first move of the back-off under way
 
     def applies(self) -> bool:
         return self.ctx.contact is not None or self.ctx.plan_failure == "start_blocked"
@@ -282,14 +282,17 @@ class BackOff(Recovery):
             ctx.settings,
             {m for (px, py), m in self.stopped if math.hypot(px - x, py - y) < near},
         )
-        self.began, self.first = (x, y), moves[0].id if moves else None
+        steps = [self.run(m) for m in moves]
+        self.began, self.first = (x, y), steps[0] if steps else None
         if not moves:
             return [] if contact is not None else None
-        return [self.run(m) for m in moves]
+        return steps
 
     def stopped_by_contact(self) -> None:
-        if self.first is not None and self.steps and self.steps[0].label == self.first:
-            self.stopped = [*self.stopped[-(self.STOPPED_KEPT - 1) :], (self.began, self.first)]
+        # (the first step itself, not its move's name: a back-off may repeat a move)
+        if self.first is not None and self.steps and self.steps[0] is self.first:
+            stopped = (self.began, self.first.label)
+            self.stopped = [*self.stopped[-(self.STOPPED_KEPT - 1) :], stopped]
 
 
 class SpinToSense(Recovery):

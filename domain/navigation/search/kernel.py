@@ -245,14 +245,22 @@ def _pop(heap: Array, size: int) -> int:  # pragma: no cover - compiled
     """Take the least entry's node off the heap of ``size`` entries."""
     top = int(heap[0, 3])
     last = size - 1
-    f, h, tie, node = heap[last, 0], heap[last, 1], heap[last, 2], heap[last, 3]
-    p = 0
+    _sift_down(heap, last, 0, heap[last, 0], heap[last, 1], heap[last, 2], heap[last, 3])
+    return top
+
+
+@jit
+def _sift_down(  # pragma: no cover - compiled
+    heap: Array, size: int, p: int, f: float, h: float, tie: float, node: float
+) -> None:
+    """Put the entry ``(f, h, tie, node)`` at place ``p`` of the heap's first ``size``
+    entries, moving the lesser child up until none comes before it."""
     while True:
         first = 4 * p + 1
-        if first >= last:
+        if first >= size:
             break
         least = first
-        for c in range(first + 1, min(first + 4, last)):
+        for c in range(first + 1, min(first + 4, size)):
             if _before(heap, c, heap[least, 0], heap[least, 1], heap[least, 2]):
                 least = c
         if not _before(heap, least, f, h, tie):
@@ -261,7 +269,6 @@ def _pop(heap: Array, size: int) -> int:  # pragma: no cover - compiled
         heap[p, 2], heap[p, 3] = heap[least, 2], heap[least, 3]
         p = least
     heap[p, 0], heap[p, 1], heap[p, 2], heap[p, 3] = f, h, tie, node
-    return top
 
 
 @jit
@@ -273,22 +280,7 @@ def _rekey(  # pragma: no cover - compiled
     for e in range(size):
         heap[e, 0] = node_g[int(heap[e, 3])] + weight * heap[e, 1]
     for p in range((size - 2) // 4, -1, -1):
-        f, h, tie, node = heap[p, 0], heap[p, 1], heap[p, 2], heap[p, 3]
-        q = p
-        while True:
-            first = 4 * q + 1
-            if first >= size:
-                break
-            least = first
-            for c in range(first + 1, min(first + 4, size)):
-                if _before(heap, c, heap[least, 0], heap[least, 1], heap[least, 2]):
-                    least = c
-            if not _before(heap, least, f, h, tie):
-                break
-            heap[q, 0], heap[q, 1] = heap[least, 0], heap[least, 1]
-            heap[q, 2], heap[q, 3] = heap[least, 2], heap[least, 3]
-            q = least
-        heap[q, 0], heap[q, 1], heap[q, 2], heap[q, 3] = f, h, tie, node
+        _sift_down(heap, size, p, heap[p, 0], heap[p, 1], heap[p, 2], heap[p, 3])
 
 
 @jit
